@@ -1,0 +1,150 @@
+"""The lifted model of a PDDL domain and problem (the supported subset).
+
+Supported: STRIPS with ``:typing``, ``:equality``, ``:action-costs``, and conditions that depend only
+on static facts (``or``, ``not``, ``imply``, ``=``, ``forall``/``when`` in effects). Static parts are
+compiled away by :mod:`hbtp.domains.grounding`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+OBJECT_TYPE = "object"
+
+
+def is_variable(term: str) -> bool:
+    return term.startswith("?")
+
+
+@dataclass(frozen=True, slots=True)
+class TypedName:
+    """A parameter, object or constant with its type(s); ``types`` has several entries for ``either``."""
+
+    name: str
+    types: tuple[str, ...] = (OBJECT_TYPE,)
+
+
+# ------------------------------------------------------------------ conditions
+@dataclass(frozen=True, slots=True)
+class AtomFormula:
+    predicate: str
+    terms: tuple[str, ...]
+    line: int = 0
+
+    def __str__(self) -> str:
+        return f"({' '.join((self.predicate, *self.terms))})"
+
+
+@dataclass(frozen=True, slots=True)
+class Equals:
+    left: str
+    right: str
+    line: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class Not:
+    operand: Formula
+    line: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class And:
+    parts: tuple[Formula, ...]
+    line: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class Or:
+    parts: tuple[Formula, ...]
+    line: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class Imply:
+    antecedent: Formula
+    consequent: Formula
+    line: int = 0
+
+
+Formula = AtomFormula | Equals | Not | And | Or | Imply
+
+
+# --------------------------------------------------------------------- effects
+@dataclass(frozen=True, slots=True)
+class AddEffect:
+    atom: AtomFormula
+
+
+@dataclass(frozen=True, slots=True)
+class DeleteEffect:
+    atom: AtomFormula
+
+
+@dataclass(frozen=True, slots=True)
+class AndEffect:
+    parts: tuple[Effect, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class ForallEffect:
+    variables: tuple[TypedName, ...]
+    body: Effect
+    line: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class WhenEffect:
+    condition: Formula
+    body: Effect
+    line: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class CostEffect:
+    """``(increase (total-cost) N)`` or ``(increase (total-cost) (f ?x))`` with a static function f."""
+
+    amount: int | AtomFormula
+    line: int = 0
+
+
+Effect = AddEffect | DeleteEffect | AndEffect | ForallEffect | WhenEffect | CostEffect
+
+
+# ------------------------------------------------------------ domain, problem
+@dataclass(frozen=True)
+class ActionSchema:
+    name: str
+    parameters: tuple[TypedName, ...]
+    precondition: Formula
+    effect: Effect
+    line: int = 0
+
+
+@dataclass(frozen=True)
+class Domain:
+    name: str
+    requirements: tuple[str, ...] = ()
+    types: dict[str, str] = field(default_factory=dict)  # child -> parent
+    constants: tuple[TypedName, ...] = ()
+    predicates: dict[str, tuple[TypedName, ...]] = field(default_factory=dict)
+    functions: dict[str, tuple[TypedName, ...]] = field(default_factory=dict)
+    actions: tuple[ActionSchema, ...] = ()
+
+    @property
+    def uses_action_costs(self) -> bool:
+        return ":action-costs" in self.requirements or "total-cost" in self.functions
+
+
+@dataclass(frozen=True)
+class Problem:
+    name: str
+    domain_name: str
+    objects: tuple[TypedName, ...] = ()
+    init: tuple[AtomFormula, ...] = ()
+    numeric_init: dict[tuple[str, tuple[str, ...]], int] = field(default_factory=dict)
+    goal: Formula = And(())
+    minimize_cost: bool = False
+
+
+TRUE = And(())

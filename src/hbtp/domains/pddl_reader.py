@@ -1,0 +1,509 @@
+"""Read PDDL domains and problems (the subset described in :mod:`hbtp.domains.lifted`).
+
+Keywords are case-insensitive; names keep their case (``ADMilk`` and ``admilk`` are different
+objects). Anything outside the subset is rejected with the construct and its line.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from hbtp.domains.lifted import (
+    OBJECT_TYPE,
+    ActionSchema,
+    AddEffect,
+    And,
+    AndEffect,
+    AtomFormula,
+    CostEffect,
+    DeleteEffect,
+    Domain,
+    Effect,
+    Equals,
+    ForallEffect,
+    Formula,
+    Imply,
+    Not,
+    Or,
+    Problem,
+    TypedName,
+    WhenEffect,
+    is_variable,
+)
+from hbtp.domains.sexpr import Expr, SList, Symbol, parse_sexprs
+from hbtp.errors import PddlError
+
+SUPPORTED_REQUIREMENTS = frozenset(
+    {
+        ":strips",
+        ":typing",
+        ":equality",
+        ":action-costs",
+        ":negative-preconditions",
+        ":disjunctive-preconditions",
+        ":conditional-effects",
+        ":adl",
+    }
+)
+UNSUPPORTED_SECTIONS = {
+    ":derived": "derived predicates",
+    ":durative-action": "durative actions",
+    ":constraints": "constraints",
+    ":process": "processes",
+    ":event": "events",
+}
+
+
+class _Reader:
+    """Shared state while reading one file: its name, for messages."""
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+
+    def fail(self, message: str, where: Expr | None) -> PddlError:
+        if where is None:
+            return PddlError(message, self.source)
+        return PddlError(message, self.source, where.line, where.column)
+
+    # ------------------------------------------------------------- helpers
+    def expect_list(self, expr: Expr, what: str) -> SList:
+        if not isinstance(expr, SList):
+            raise self.fail(f"expected {what}, found {expr.text!r}", expr)
+        return expr
+
+    def expect_symbol(self, expr: Expr, what: str) -> Symbol:
+        if not isinstance(expr, Symbol):
+            raise self.fail(f"expected {what}, found a list", expr)
+        return expr
+
+    def define(self, text: str, kind: str) -> tuple[str, list[Expr], SList]:
+        exprs = parse_sexprs(text, self.source)
+        if len(exprs) != 1:
+            where = exprs[1] if len(exprs) > 1 else None
+            raise self.fail("expected exactly one (define ...) form", where)
+        top = self.expect_list(exprs[0], "(define ...)")
+        if top.head() != "define" or len(top.items) < 2:
+            raise self.fail("expected (define ...)", top)
+        header = self.expect_list(top.items[1], f"({kind} NAME)")
+        if header.head() != kind or len(header.items) != 2:
+            raise self.fail(f"expected ({kind} NAME)", header)
+        name = self.expect_symbol(header.items[1], f"{kind} name").text
+        return name, list(top.items[2:]), top
+
+    def typed_list(self, items: tuple[Expr, ...], variables: bool) -> list[TypedName]:
+        """Read ``a b - t c - (either u v) d``."""
+        result: list[TypedName] = []
+        pending: list[Symbol] = []
+        index = 0
+        while index < len(items):
+            item = items[index]
+            if isinstance(item, Symbol) and item.text == "-":
+                if not pending or index + 1 >= len(items):
+                    raise self.fail("'-' must stand between names and a type", item)
+                types = self.type_spec(items[index + 1])
+                result.extend(TypedName(s.text, types) for s in pending)
+                pending = []
+                index += 2
+                continue
+            symbol = self.expect_symbol(item, "a name")
+            if variables != is_variable(symbol.text):
+                kind = "a variable (?x)" if variables else "a name without '?'"
+                raise self.fail(f"expected {kind}, found {symbol.text!r}", symbol)
+            pending.append(symbol)
+            index += 1
+        result.extend(TypedName(s.text) for s in pending)
+        names = [t.name for t in result]
+        for i, name in enumerate(names):
+            if name in names[:i]:
+                raise self.fail(f"{name!r} is declared twice", items[0])
+        return result
+
+    def type_spec(self, expr: Expr) -> tuple[str, ...]:
+        if isinstance(expr, Symbol):
+            return (expr.text,)
+        if expr.head() != "either" or len(expr.items) < 2:
+            raise self.fail("expected a type or (either t1 t2 ...)", expr)
+        return tuple(self.expect_symbol(e, "a type").text for e in expr.items[1:])
+
+    # ------------------------------------------------------------ formulas
+    def formula(self, expr: Expr, context: _Scope) -> Formula:
+        node = self.expect_list(expr, "a condition")
+        head = self.keyword(node, context)
+        args = node.items[1:]
+        if head == "and":
+            return And(tuple(self.formula(a, context) for a in args), node.line)
+        if head == "or":
+            return Or(tuple(self.formula(a, context) for a in args), node.line)
+        if head == "not":
+            if len(args) != 1:
+                raise self.fail("(not ...) takes one condition", node)
+            return Not(self.formula(args[0], context), node.line)
+        if head == "imply":
+            if len(args) != 2:
+                raise self.fail("(imply A B) takes two conditions", node)
+            return Imply(self.formula(args[0], context), self.formula(args[1], context), node.line)
+        if head == "=":
+            if len(args) != 2:
+                raise self.fail("(= a b) takes two terms", node)
+            left, right = (self.term(a, context) for a in args)
+            return Equals(left, right, node.line)
+        if head in ("exists", "forall"):
+            raise self.fail(f"quantified conditions ({head}) are not supported", node)
+        if head in ("<", ">", "<=", ">="):
+            raise self.fail(f"numeric conditions ({head}) are not supported", node)
+        return self.atom(node, context)
+
+    def keyword(self, node: SList, context: _Scope) -> str:
+        """The lower-cased head of ``node``, or '' when it names a declared predicate.
+
+        PDDL keywords are case-insensitive, so a predicate called ``Exists`` would read as the
+        quantifier; a declared predicate name always wins.
+        """
+        first = node.items[0] if node.items else None
+        if isinstance(first, Symbol) and first.text in context.predicates:
+            return ""
+        return node.head()
+
+    def atom(self, node: SList, context: _Scope) -> AtomFormula:
+        if not node.items:
+            raise self.fail("empty condition ()", node)
+        name = self.expect_symbol(node.items[0], "a predicate").text
+        terms = tuple(self.term(t, context) for t in node.items[1:])
+        context.check_atom(name, terms, node, self)
+        return AtomFormula(name, terms, node.line)
+
+    def term(self, expr: Expr, context: _Scope) -> str:
+        symbol = self.expect_symbol(expr, "a variable or object")
+        context.check_term(symbol, self)
+        return symbol.text
+
+    # ------------------------------------------------------------- effects
+    def effect(self, expr: Expr, context: _Scope) -> Effect:
+        node = self.expect_list(expr, "an effect")
+        head = self.keyword(node, context)
+        args = node.items[1:]
+        if head == "and":
+            return AndEffect(tuple(self.effect(a, context) for a in args))
+        if head == "not":
+            if len(args) != 1:
+                raise self.fail("(not ...) takes one atom", node)
+            inner = self.expect_list(args[0], "an atom")
+            inner_head = self.keyword(inner, context)
+            if inner_head in ("and", "or", "not", "forall", "when", "="):
+                raise self.fail(f"(not ({inner_head} ...)) is not an effect", inner)
+            return DeleteEffect(self.atom(inner, context))
+        if head == "forall":
+            if len(args) != 2:
+                raise self.fail("(forall (?vars) effect) takes two parts", node)
+            variables = self.typed_list(self.expect_list(args[0], "(?vars)").items, variables=True)
+            scope = context.extended(variables)
+            return ForallEffect(tuple(variables), self.effect(args[1], scope), node.line)
+        if head == "when":
+            if len(args) != 2:
+                raise self.fail("(when condition effect) takes two parts", node)
+            return WhenEffect(self.formula(args[0], context), self.effect(args[1], context), node.line)
+        if head == "increase":
+            return self.cost_effect(node, context)
+        if head in ("decrease", "assign", "scale-up", "scale-down"):
+            raise self.fail(f"numeric effect ({head}) is not supported (only increase total-cost)", node)
+        if head == "=":
+            raise self.fail("(= ...) is not an effect", node)
+        return AddEffect(self.atom(node, context))
+
+    def cost_effect(self, node: SList, context: _Scope) -> CostEffect:
+        if len(node.items) != 3:
+            raise self.fail("expected (increase (total-cost) AMOUNT)", node)
+        target = self.expect_list(node.items[1], "(total-cost)")
+        if target.head() != "total-cost" or len(target.items) != 1:
+            raise self.fail("only (increase (total-cost) ...) is supported", target)
+        amount = node.items[2]
+        if isinstance(amount, Symbol):
+            try:
+                value = int(amount.text)
+            except ValueError:
+                raise self.fail(f"cost {amount.text!r} is not a whole number", amount) from None
+            if value < 0:
+                raise self.fail("action costs must not be negative", amount)
+            return CostEffect(value, node.line)
+        name = self.expect_symbol(amount.items[0], "a function") if amount.items else None
+        if name is None or name.text not in context.functions:
+            raise self.fail("cost must be a number or a declared static function", amount)
+        terms = tuple(self.term(t, context) for t in amount.items[1:])
+        if len(terms) != len(context.functions[name.text]):
+            raise self.fail(f"function {name.text!r} takes {len(context.functions[name.text])} argument(s)", amount)
+        return CostEffect(AtomFormula(name.text, terms, amount.line), node.line)
+
+
+class _Scope:
+    """Names visible in a formula: predicates, constants/objects, bound variables."""
+
+    def __init__(
+        self,
+        predicates: dict[str, tuple[TypedName, ...]],
+        functions: dict[str, tuple[TypedName, ...]],
+        names: set[str],
+        variables: set[str],
+    ) -> None:
+        self.predicates = predicates
+        self.functions = functions
+        self.names = names
+        self.variables = variables
+
+    def extended(self, variables: list[TypedName]) -> _Scope:
+        return _Scope(self.predicates, self.functions, self.names, self.variables | {v.name for v in variables})
+
+    def check_atom(self, name: str, terms: tuple[str, ...], node: SList, reader: _Reader) -> None:
+        if name not in self.predicates:
+            raise reader.fail(f"unknown predicate {name!r}", node)
+        arity = len(self.predicates[name])
+        if len(terms) != arity:
+            raise reader.fail(f"predicate {name!r} takes {arity} argument(s), found {len(terms)}", node)
+
+    def check_term(self, symbol: Symbol, reader: _Reader) -> None:
+        if is_variable(symbol.text):
+            if symbol.text not in self.variables:
+                raise reader.fail(f"unbound variable {symbol.text!r}", symbol)
+        elif symbol.text not in self.names:
+            raise reader.fail(f"unknown object or constant {symbol.text!r}", symbol)
+
+
+# ====================================================================== domain
+def read_domain(text: str, source: str = "<domain>") -> Domain:
+    """Parse a PDDL domain."""
+    reader = _Reader(source)
+    name, sections, _ = reader.define(text, "domain")
+    requirements: list[str] = []
+    types: dict[str, str] = {}
+    constants: list[TypedName] = []
+    predicates: dict[str, tuple[TypedName, ...]] = {}
+    functions: dict[str, tuple[TypedName, ...]] = {}
+    action_nodes: list[SList] = []
+    seen: set[str] = set()
+    for section in sections:
+        node = reader.expect_list(section, "a domain section")
+        head = node.head()
+        if head in UNSUPPORTED_SECTIONS:
+            raise reader.fail(f"{UNSUPPORTED_SECTIONS[head]} ({head}) are not supported", node)
+        if head != ":action" and head in seen:
+            raise reader.fail(f"section {head} appears twice", node)
+        seen.add(head)
+        if head == ":requirements":
+            for item in node.items[1:]:
+                req = reader.expect_symbol(item, "a requirement").lower
+                if req not in SUPPORTED_REQUIREMENTS:
+                    raise reader.fail(f"requirement {req} is not supported", item)
+                requirements.append(req)
+        elif head == ":types":
+            for typed in reader.typed_list(node.items[1:], variables=False):
+                if len(typed.types) != 1:
+                    raise reader.fail(f"type {typed.name!r} cannot have an (either ...) parent", node)
+                types[typed.name] = typed.types[0]
+        elif head == ":constants":
+            constants = reader.typed_list(node.items[1:], variables=False)
+        elif head == ":predicates":
+            for item in node.items[1:]:
+                decl = reader.expect_list(item, "(predicate ?args)")
+                pname = reader.expect_symbol(decl.items[0], "a predicate name").text if decl.items else ""
+                if not pname:
+                    raise reader.fail("empty predicate declaration", decl)
+                if pname in predicates:
+                    raise reader.fail(f"predicate {pname!r} is declared twice", decl)
+                predicates[pname] = tuple(reader.typed_list(decl.items[1:], variables=True))
+        elif head == ":functions":
+            functions.update(_read_functions(reader, node))
+        elif head == ":action":
+            action_nodes.append(node)
+        else:
+            raise reader.fail(f"unknown domain section {head or '(list)'}", node)
+
+    declared_types = {OBJECT_TYPE, *types, *types.values()}
+    for typed in [*constants, *(p for params in predicates.values() for p in params)]:
+        for t in typed.types:
+            if t not in declared_types:
+                raise reader.fail(f"unknown type {t!r} (of {typed.name!r})", None)
+    _check_type_cycles(reader, types)
+
+    scope = _Scope(predicates, functions, {c.name for c in constants}, set())
+    actions: list[ActionSchema] = []
+    for node in action_nodes:
+        action = _read_action(reader, node, scope, declared_types)
+        if any(a.name == action.name for a in actions):
+            raise reader.fail(f"action {action.name!r} is declared twice", node)
+        actions.append(action)
+    return Domain(name, tuple(requirements), types, tuple(constants), predicates, functions, tuple(actions))
+
+
+def _read_functions(reader: _Reader, node: SList) -> dict[str, tuple[TypedName, ...]]:
+    functions: dict[str, tuple[TypedName, ...]] = {}
+    items = node.items[1:]
+    index = 0
+    while index < len(items):
+        item = items[index]
+        if isinstance(item, Symbol) and item.text == "-":
+            kind = reader.expect_symbol(items[index + 1], "number") if index + 1 < len(items) else None
+            if kind is None or kind.lower != "number":
+                raise reader.fail("only numeric functions (- number) are supported", item)
+            index += 2
+            continue
+        decl = reader.expect_list(item, "(function ?args)")
+        fname = reader.expect_symbol(decl.items[0], "a function name").text if decl.items else ""
+        if not fname:
+            raise reader.fail("empty function declaration", decl)
+        functions[fname] = tuple(reader.typed_list(decl.items[1:], variables=True))
+        index += 1
+    return functions
+
+
+def _check_type_cycles(reader: _Reader, types: dict[str, str]) -> None:
+    for start in types:
+        seen = {start}
+        current = types.get(start)
+        while current is not None and current != OBJECT_TYPE:
+            if current in seen:
+                raise reader.fail(f"type {start!r} is its own ancestor", None)
+            seen.add(current)
+            current = types.get(current)
+
+
+def _read_action(reader: _Reader, node: SList, scope: _Scope, declared_types: set[str]) -> ActionSchema:
+    if len(node.items) < 2:
+        raise reader.fail("(:action NAME ...) needs a name", node)
+    name = reader.expect_symbol(node.items[1], "an action name").text
+    fields: dict[str, Expr] = {}
+    rest = node.items[2:]
+    if len(rest) % 2:
+        raise reader.fail(f"action {name!r}: keywords and values must come in pairs", node)
+    for key, value in zip(rest[::2], rest[1::2], strict=True):
+        keyword = reader.expect_symbol(key, "a keyword").lower
+        if keyword not in (":parameters", ":precondition", ":effect"):
+            raise reader.fail(f"action {name!r}: unknown keyword {keyword}", key)
+        fields[keyword] = value
+    params_node = fields.get(":parameters")
+    parameters = (
+        reader.typed_list(reader.expect_list(params_node, "(?params)").items, variables=True)
+        if params_node is not None
+        else []
+    )
+    for param in parameters:
+        for t in param.types:
+            if t not in declared_types:
+                raise reader.fail(f"action {name!r}: unknown type {t!r}", params_node)
+    inner = scope.extended(parameters)
+    pre_node = fields.get(":precondition")
+    precondition: Formula = And(())
+    if pre_node is not None and not (isinstance(pre_node, SList) and not pre_node.items):
+        precondition = reader.formula(pre_node, inner)
+    effect_node = fields.get(":effect")
+    if effect_node is None:
+        raise reader.fail(f"action {name!r} has no :effect", node)
+    effect = reader.effect(effect_node, inner)
+    return ActionSchema(name, tuple(parameters), precondition, effect, node.line)
+
+
+# ===================================================================== problem
+def read_problem(text: str, domain: Domain, source: str = "<problem>") -> Problem:
+    """Parse a PDDL problem of ``domain``."""
+    reader = _Reader(source)
+    name, sections, _ = reader.define(text, "problem")
+    domain_name = ""
+    objects: list[TypedName] = []
+    init_nodes: list[Expr] = []
+    goal_node: Expr | None = None
+    minimize = False
+    for section in sections:
+        node = reader.expect_list(section, "a problem section")
+        head = node.head()
+        if head == ":domain":
+            domain_name = reader.expect_symbol(node.items[1], "a domain name").text if len(node.items) > 1 else ""
+            if domain_name.lower() != domain.name.lower():
+                raise reader.fail(f"problem is for domain {domain_name!r}, not {domain.name!r}", node)
+        elif head == ":objects":
+            objects = reader.typed_list(node.items[1:], variables=False)
+        elif head == ":init":
+            init_nodes = list(node.items[1:])
+        elif head == ":goal":
+            if len(node.items) != 2:
+                raise reader.fail("(:goal ...) takes one condition", node)
+            goal_node = node.items[1]
+        elif head == ":metric":
+            minimize = _read_metric(reader, node)
+        elif head == ":requirements":
+            continue
+        else:
+            raise reader.fail(f"unknown problem section {head or '(list)'}", node)
+
+    declared_types = {OBJECT_TYPE, *domain.types, *domain.types.values()}
+    constants = {c.name for c in domain.constants}
+    for obj in objects:
+        for t in obj.types:
+            if t not in declared_types:
+                raise reader.fail(f"unknown type {t!r} of object {obj.name!r}", None)
+        if obj.name in constants:
+            raise reader.fail(f"object {obj.name!r} is already a domain constant", None)
+    scope = _Scope(domain.predicates, domain.functions, constants | {o.name for o in objects}, set())
+    init: list[AtomFormula] = []
+    numeric: dict[tuple[str, tuple[str, ...]], int] = {}
+    for item in init_nodes:
+        fact = reader.expect_list(item, "an initial fact")
+        if fact.head() == "=":
+            key, value = _read_numeric_fact(reader, fact, scope)
+            numeric[key] = value
+            continue
+        if fact.head() in ("and", "or", "not", "forall", "when"):
+            raise reader.fail(f"(:init ...) holds atoms only, found ({fact.head()} ...)", fact)
+        atom = reader.atom(fact, scope)
+        if any(is_variable(t) for t in atom.terms):
+            raise reader.fail("initial facts cannot contain variables", fact)
+        init.append(atom)
+    goal: Formula = And(())
+    if goal_node is not None:
+        goal = reader.formula(goal_node, scope)
+    return Problem(name, domain_name or domain.name, tuple(objects), tuple(init), numeric, goal, minimize)
+
+
+def _read_metric(reader: _Reader, node: SList) -> bool:
+    items = node.items[1:]
+    if (
+        len(items) == 2
+        and isinstance(items[0], Symbol)
+        and items[0].lower == "minimize"
+        and isinstance(items[1], SList)
+        and items[1].head() == "total-cost"
+    ):
+        return True
+    raise reader.fail("only (:metric minimize (total-cost)) is supported", node)
+
+
+def _read_numeric_fact(reader: _Reader, fact: SList, scope: _Scope) -> tuple[tuple[str, tuple[str, ...]], int]:
+    if len(fact.items) != 3:
+        raise reader.fail("expected (= (function args) NUMBER)", fact)
+    target = reader.expect_list(fact.items[1], "(function args)")
+    fname = reader.expect_symbol(target.items[0], "a function").text if target.items else ""
+    if fname not in scope.functions:
+        raise reader.fail(f"unknown function {fname!r}", target)
+    args = tuple(reader.term(t, scope) for t in target.items[1:])
+    value_symbol = reader.expect_symbol(fact.items[2], "a number")
+    try:
+        value = int(value_symbol.text)
+    except ValueError:
+        raise reader.fail(f"{value_symbol.text!r} is not a whole number", value_symbol) from None
+    return (fname, args), value
+
+
+def read_domain_file(path: str | Path) -> Domain:
+    path = Path(path)
+    return read_domain(_read_text(path), str(path))
+
+
+def read_problem_file(path: str | Path, domain: Domain) -> Problem:
+    path = Path(path)
+    return read_problem(_read_text(path), domain, str(path))
+
+
+def _read_text(path: Path) -> str:
+    try:
+        return path.read_text(encoding="utf-8")
+    except OSError as error:
+        raise PddlError(f"cannot read file: {error.strerror or error}", str(path)) from None
+    except UnicodeDecodeError:
+        raise PddlError("file is not UTF-8 text", str(path)) from None

@@ -1,0 +1,178 @@
+"""Write PDDL: the lifted model back to text (the inverse of the reader), and a grounded task as a
+plain STRIPS + action-costs domain/problem pair that any PDDL planner (Fast Downward) accepts.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+from hbtp.domains.lifted import (
+    OBJECT_TYPE,
+    ActionSchema,
+    AddEffect,
+    And,
+    AndEffect,
+    AtomFormula,
+    CostEffect,
+    DeleteEffect,
+    Domain,
+    Effect,
+    Equals,
+    ForallEffect,
+    Formula,
+    Imply,
+    Not,
+    Or,
+    Problem,
+    TypedName,
+    WhenEffect,
+)
+from hbtp.logic.atoms import Atom
+from hbtp.logic.task import Goal, GroundTask
+
+
+def _typed(names: Iterable[TypedName]) -> str:
+    parts: list[str] = []
+    for typed in names:
+        if typed.types == (OBJECT_TYPE,):
+            parts.append(typed.name)
+        elif len(typed.types) == 1:
+            parts.append(f"{typed.name} - {typed.types[0]}")
+        else:
+            parts.append(f"{typed.name} - (either {' '.join(typed.types)})")
+    return " ".join(parts)
+
+
+def format_formula(formula: Formula) -> str:
+    if isinstance(formula, AtomFormula):
+        return str(formula)
+    if isinstance(formula, Equals):
+        return f"(= {formula.left} {formula.right})"
+    if isinstance(formula, Not):
+        return f"(not {format_formula(formula.operand)})"
+    if isinstance(formula, And):
+        return f"(and {' '.join(format_formula(p) for p in formula.parts)})".replace("(and )", "(and)")
+    if isinstance(formula, Or):
+        return f"(or {' '.join(format_formula(p) for p in formula.parts)})"
+    assert isinstance(formula, Imply)
+    return f"(imply {format_formula(formula.antecedent)} {format_formula(formula.consequent)})"
+
+
+def format_effect(effect: Effect) -> str:
+    if isinstance(effect, AddEffect):
+        return str(effect.atom)
+    if isinstance(effect, DeleteEffect):
+        return f"(not {effect.atom})"
+    if isinstance(effect, AndEffect):
+        return f"(and {' '.join(format_effect(p) for p in effect.parts)})".replace("(and )", "(and)")
+    if isinstance(effect, ForallEffect):
+        return f"(forall ({_typed(effect.variables)}) {format_effect(effect.body)})"
+    if isinstance(effect, WhenEffect):
+        return f"(when {format_formula(effect.condition)} {format_effect(effect.body)})"
+    assert isinstance(effect, CostEffect)
+    amount = effect.amount if isinstance(effect.amount, int) else str(effect.amount)
+    return f"(increase (total-cost) {amount})"
+
+
+def _action(action: ActionSchema) -> str:
+    return (
+        f"  (:action {action.name}\n"
+        f"    :parameters ({_typed(action.parameters)})\n"
+        f"    :precondition {format_formula(action.precondition)}\n"
+        f"    :effect {format_effect(action.effect)})\n"
+    )
+
+
+def write_domain(domain: Domain) -> str:
+    """The domain as PDDL text; ``read_domain(write_domain(d)) == d``."""
+    lines = [f"(define (domain {domain.name})\n"]
+    if domain.requirements:
+        lines.append(f"  (:requirements {' '.join(domain.requirements)})\n")
+    if domain.types:
+        lines.append(f"  (:types {_typed(TypedName(c, (p,)) for c, p in domain.types.items())})\n")
+    if domain.constants:
+        lines.append(f"  (:constants {_typed(domain.constants)})\n")
+    lines.append("  (:predicates\n")
+    for name, params in domain.predicates.items():
+        lines.append(f"    ({' '.join(filter(None, (name, _typed(params))))})\n")
+    lines.append("  )\n")
+    if domain.functions:
+        decls = " ".join(f"({' '.join(filter(None, (n, _typed(a))))}) - number" for n, a in domain.functions.items())
+        lines.append(f"  (:functions {decls})\n")
+    lines.extend(_action(a) for a in domain.actions)
+    lines.append(")\n")
+    return "".join(lines)
+
+
+def write_problem(problem: Problem) -> str:
+    """The problem as PDDL text; the reader gives back an equal :class:`Problem`."""
+    lines = [f"(define (problem {problem.name})\n", f"  (:domain {problem.domain_name})\n"]
+    if problem.objects:
+        lines.append(f"  (:objects {_typed(problem.objects)})\n")
+    lines.append("  (:init\n")
+    lines.extend(f"    {fact}\n" for fact in problem.init)
+    for (name, args), value in problem.numeric_init.items():
+        lines.append(f"    (= ({' '.join((name, *args))}) {value})\n")
+    lines.append("  )\n")
+    lines.append(f"  (:goal {format_formula(problem.goal)})\n")
+    if problem.minimize_cost:
+        lines.append("  (:metric minimize (total-cost))\n")
+    lines.append(")\n")
+    return "".join(lines)
+
+
+# ---------------------------------------------------------------- grounded
+def _ground_atom(atom: Atom) -> str:
+    return f"({' '.join((atom.predicate, *atom.args))})"
+
+
+def write_grounded(task: GroundTask, goal: Goal, domain_name: str | None = None) -> tuple[str, str]:
+    """A grounded task as a STRIPS + ``:action-costs`` domain and problem (one action per ground action).
+
+    The encoding is exactly the task the planners search (static facts already compiled away), so
+    an independent planner's optimal cost on it is directly comparable.
+    """
+    name = domain_name or _pddl_name(task.name)
+    symbols = [*task.constants, *task.objects]
+    used: dict[str, int] = {}
+    for atom in task.atoms:
+        used.setdefault(atom.predicate, len(atom.args))
+    for atom in goal.atoms:
+        used.setdefault(atom.predicate, len(atom.args))
+    domain = [
+        f"(define (domain {name})\n",
+        "  (:requirements :strips :action-costs)\n",
+        f"  (:constants {' '.join(symbols)})\n" if symbols else "",
+        "  (:predicates\n",
+        *(f"    ({' '.join((p, *(f'?a{i}' for i in range(arity))))})\n" for p, arity in sorted(used.items())),
+        "  )\n",
+        "  (:functions (total-cost) - number)\n",
+    ]
+    for action in task.actions:
+        pre = " ".join(_ground_atom(task.atoms[i]) for i in sorted(action.pre))
+        eff = [_ground_atom(task.atoms[i]) for i in sorted(action.add)]
+        eff += [f"(not {_ground_atom(task.atoms[i])})" for i in sorted(action.delete)]
+        eff.append(f"(increase (total-cost) {action.cost})")
+        domain.append(
+            f"  (:action {action.signature.underscored}\n"
+            f"    :parameters ()\n"
+            f"    :precondition (and {pre})\n"
+            f"    :effect (and {' '.join(eff)}))\n"
+        )
+    domain.append(")\n")
+    init = " ".join(_ground_atom(task.atoms[i]) for i in sorted(task.initial_state))
+    goals = " ".join(_ground_atom(a) for a in goal.atoms)
+    problem = (
+        f"(define (problem {name}-task)\n"
+        f"  (:domain {name})\n"
+        f"  (:init {init} (= (total-cost) 0))\n"
+        f"  (:goal (and {goals}))\n"
+        "  (:metric minimize (total-cost))\n"
+        ")\n"
+    )
+    return "".join(domain), problem
+
+
+def _pddl_name(text: str) -> str:
+    cleaned = "".join(c if c.isalnum() or c in "-_" else "-" for c in text)
+    return cleaned if cleaned[:1].isalpha() else f"d-{cleaned}"

@@ -1,0 +1,90 @@
+"""Ground atoms such as ``IsIn(milk,fridge)``: the readable names at the edges of hbtp.
+
+Inside a grounded task atoms are interned to integers; :class:`Atom` is what users read and
+write. The same shape names a grounded action (``Walk(apple)``).
+
+Two spellings are accepted everywhere: ``IsIn(milk,fridge)`` and the datasets' ``IsIn_milk_fridge``
+(the first ``_`` separates the predicate, the others separate arguments).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from hbtp.errors import InputError
+
+_NAME = r"[A-Za-z][A-Za-z0-9_\-]*"
+_PAREN_FORM = re.compile(rf"^\s*({_NAME})\s*\(\s*([^()]*)\)\s*$")
+_BARE_NAME = re.compile(rf"^\s*({_NAME})\s*$")
+
+
+@dataclass(frozen=True, slots=True, order=True)
+class Atom:
+    """A predicate applied to objects: ``IsIn(milk,fridge)``; also used for action names."""
+
+    predicate: str
+    args: tuple[str, ...] = ()
+
+    def __str__(self) -> str:
+        return f"{self.predicate}({','.join(self.args)})"
+
+    @property
+    def underscored(self) -> str:
+        """The datasets' spelling, ``IsIn_milk_fridge``."""
+        return "_".join((self.predicate, *self.args))
+
+
+def parse_atom(text: str) -> Atom:
+    """Read ``IsIn(milk,fridge)``, ``IsIn(milk, fridge)`` or ``IsIn_milk_fridge``.
+
+    Raises :class:`InputError` on anything else.
+    """
+    match = _PAREN_FORM.match(text)
+    if match:
+        inner = match.group(2).strip()
+        args = tuple(a.strip() for a in inner.split(",")) if inner else ()
+        if any(not re.fullmatch(_NAME, a) for a in args):
+            raise InputError(f"malformed literal {text.strip()!r}")
+        return Atom(match.group(1), args)
+    match = _BARE_NAME.match(text)
+    if match:
+        predicate, *rest = match.group(1).split("_")
+        if not predicate or any(not a for a in rest):
+            raise InputError(f"malformed literal {text.strip()!r}")
+        return Atom(predicate, tuple(rest))
+    raise InputError(f"malformed literal {text.strip()!r} (expected Pred(a,b) or Pred_a_b)")
+
+
+def split_conjunction(text: str) -> list[str]:
+    """Split ``A & B`` (also ``A and B``, ``A, B`` between paren-form atoms) into atom texts."""
+    parts: list[str] = []
+    depth = 0
+    current: list[str] = []
+    for char in text:
+        if char == "(":
+            depth += 1
+        elif char == ")":
+            depth -= 1
+        if depth == 0 and char in "&":
+            parts.append("".join(current))
+            current = []
+            continue
+        current.append(char)
+    parts.append("".join(current))
+    pieces = [p.strip() for p in parts]
+    if any(not p for p in pieces):
+        raise InputError(f"malformed conjunction {text.strip()!r}: an empty conjunct")
+    return pieces
+
+
+def parse_conjunction(text: str) -> tuple[Atom, ...]:
+    """Read a goal such as ``IsIn_milk_fridge & IsClose(fridge)`` into atoms, in order, without repeats."""
+    if not text.strip():
+        raise InputError("empty goal")
+    atoms: list[Atom] = []
+    for piece in split_conjunction(text):
+        atom = parse_atom(piece)
+        if atom not in atoms:
+            atoms.append(atom)
+    return tuple(atoms)

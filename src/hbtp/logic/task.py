@@ -1,0 +1,216 @@
+"""The grounded STRIPS task: interned atoms, grounded actions, the initial state.
+
+Semantics (pyperplan's three lines): an action is applicable in ``s`` when ``pre <= s``;
+progression is ``(s - delete) | add``; regression of a condition ``c`` through ``a`` is defined when
+``c & delete`` is empty and gives ``pre | (c - add)``.
+
+States and conditions are ``frozenset[int]`` of atom ids; :class:`Atom` names are kept at the edges.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+
+from hbtp.errors import InputError, UnknownSymbolError
+from hbtp.logic.atoms import Atom, parse_atom, parse_conjunction
+
+State = frozenset[int]
+Condition = frozenset[int]
+
+
+@dataclass(frozen=True, slots=True)
+class GroundAction:
+    """A grounded action: ``Walk(apple)`` with its precondition, add and delete effects and cost."""
+
+    index: int
+    signature: Atom
+    pre: frozenset[int]
+    add: frozenset[int]
+    delete: frozenset[int]
+    cost: int
+
+    @property
+    def name(self) -> str:
+        return str(self.signature)
+
+    @property
+    def predicate(self) -> str:
+        return self.signature.predicate
+
+    @property
+    def objects(self) -> tuple[str, ...]:
+        return self.signature.args
+
+    def applicable(self, state: State) -> bool:
+        return self.pre <= state
+
+    def progress(self, state: State) -> State:
+        return (state - self.delete) | self.add
+
+    def regress(self, condition: Condition) -> Condition | None:
+        """The weakest condition under which applying this action makes ``condition`` hold.
+
+        ``None`` when the action deletes part of ``condition``.
+        """
+        if condition & self.delete:
+            return None
+        return self.pre | (condition - self.add)
+
+
+@dataclass(frozen=True)
+class Goal:
+    """A conjunctive goal, resolved against a task.
+
+    ``atoms`` keeps the user's order. ``unreachable`` lists well-formed literals that no action adds
+    and the initial state lacks: the goal is then unsolvable.
+    """
+
+    atoms: tuple[Atom, ...]
+    ids: frozenset[int]
+    unreachable: tuple[Atom, ...] = ()
+
+    def __str__(self) -> str:
+        return " & ".join(a.underscored for a in self.atoms)
+
+
+@dataclass(frozen=True)
+class GroundTask:
+    """A grounded planning task over interned atoms.
+
+    ``objects`` are the problem's objects (the paper's O); ``constants`` are the domain's own symbols
+    (``self``, ``Nothing``…). ``predicates`` maps each fluent predicate to its arity and
+    ``static_facts`` holds the compiled-away facts (object categories and relations).
+    """
+
+    name: str
+    atoms: tuple[Atom, ...]
+    actions: tuple[GroundAction, ...]
+    initial_state: State
+    objects: tuple[str, ...]
+    constants: tuple[str, ...] = ()
+    predicates: Mapping[str, int] = field(default_factory=dict)
+    static_facts: frozenset[Atom] = frozenset()
+
+    # ----------------------------------------------------------------- lookups
+    @cached_property
+    def atom_ids(self) -> dict[Atom, int]:
+        return {atom: i for i, atom in enumerate(self.atoms)}
+
+    @cached_property
+    def action_ids(self) -> dict[Atom, int]:
+        return {action.signature: action.index for action in self.actions}
+
+    @cached_property
+    def action_predicates(self) -> tuple[str, ...]:
+        """Action predicate names (the paper's Q), in first-grounded order."""
+        return tuple(dict.fromkeys(a.predicate for a in self.actions))
+
+    @cached_property
+    def achievers(self) -> tuple[tuple[int, ...], ...]:
+        """For each atom id, the indices of the actions that add it."""
+        table: list[list[int]] = [[] for _ in self.atoms]
+        for action in self.actions:
+            for atom in action.add:
+                table[atom].append(action.index)
+        return tuple(tuple(ids) for ids in table)
+
+    @cached_property
+    def symbols(self) -> frozenset[str]:
+        return frozenset(self.objects) | frozenset(self.constants)
+
+    @cached_property
+    def categories(self) -> dict[str, tuple[str, ...]]:
+        """Unary static predicates read as object categories: name -> sorted members."""
+        table: dict[str, list[str]] = {}
+        for fact in self.static_facts:
+            if len(fact.args) == 1:
+                table.setdefault(fact.predicate, []).append(fact.args[0])
+        return {name: tuple(sorted(members)) for name, members in sorted(table.items())}
+
+    def atom(self, atom_id: int) -> Atom:
+        return self.atoms[atom_id]
+
+    def atom_id(self, atom: Atom | str) -> int:
+        """The id of a literal known to the task; raises :class:`UnknownSymbolError` otherwise."""
+        if isinstance(atom, str):
+            atom = parse_atom(atom)
+        try:
+            return self.atom_ids[atom]
+        except KeyError:
+            self.check_literal(atom)
+            raise UnknownSymbolError(f"literal {atom} never occurs in task {self.name!r}") from None
+
+    def action(self, name: Atom | str) -> GroundAction:
+        """The grounded action named ``Walk(apple)`` or ``Walk_apple``."""
+        signature = parse_atom(name) if isinstance(name, str) else name
+        try:
+            return self.actions[self.action_ids[signature]]
+        except KeyError:
+            raise UnknownSymbolError(f"action {signature} is not a grounded action of {self.name!r}") from None
+
+    def names(self, ids: Iterable[int]) -> list[str]:
+        """Readable, sorted names of a set of atom ids."""
+        return sorted(str(self.atoms[i]) for i in ids)
+
+    # ------------------------------------------------------------- validation
+    def check_literal(self, atom: Atom) -> None:
+        """Raise :class:`UnknownSymbolError` unless ``atom`` is well formed for this domain."""
+        arity = self.predicates.get(atom.predicate)
+        if arity is None:
+            static_arity = {f.predicate: len(f.args) for f in self.static_facts}.get(atom.predicate)
+            if static_arity is None:
+                raise UnknownSymbolError(
+                    f"unknown predicate {atom.predicate!r} in {atom} (task {self.name!r} has: "
+                    f"{', '.join(sorted(self.predicates))})"
+                )
+            arity = static_arity
+        if len(atom.args) != arity:
+            raise UnknownSymbolError(f"{atom}: predicate {atom.predicate!r} takes {arity} argument(s)")
+        unknown = [arg for arg in atom.args if arg not in self.symbols]
+        if unknown:
+            raise UnknownSymbolError(f"unknown object {unknown[0]!r} in {atom}")
+
+    def resolve_goal(self, goal: str | Iterable[Atom | str]) -> Goal:
+        """Resolve a goal text (``IsIn_milk_fridge & IsClose(fridge)``) or atoms against this task."""
+        if isinstance(goal, str):
+            atoms = parse_conjunction(goal)
+        else:
+            atoms = tuple(parse_atom(a) if isinstance(a, str) else a for a in goal)
+            if not atoms:
+                raise InputError("empty goal")
+        ids: set[int] = set()
+        unreachable: list[Atom] = []
+        for atom in atoms:
+            self.check_literal(atom)
+            if atom.predicate not in self.predicates:
+                raise InputError(f"{atom} is a static fact of the domain, not a goal literal")
+            atom_id = self.atom_ids.get(atom)
+            if atom_id is None:
+                unreachable.append(atom)
+            else:
+                ids.add(atom_id)
+        reachable_now = set(self.initial_state)
+        for atom_id in ids:
+            if atom_id not in reachable_now and not self.achievers[atom_id]:
+                unreachable.append(self.atoms[atom_id])
+        return Goal(atoms, frozenset(ids), tuple(unreachable))
+
+    # ---------------------------------------------------------------- execute
+    def execute(self, actions: Sequence[GroundAction], state: State | None = None) -> tuple[State, int]:
+        """Apply ``actions`` in order from ``state`` (default: s0).
+
+        Returns the final state and the number of actions applied before the first that is not
+        applicable (``len(actions)`` when all are).
+        """
+        current = self.initial_state if state is None else state
+        for done, action in enumerate(actions):
+            if not action.applicable(current):
+                return current, done
+            current = action.progress(current)
+        return current, len(actions)
+
+    def restricted(self, action_ids: Iterable[int]) -> tuple[GroundAction, ...]:
+        """The actions with the given indices, in task order (an action space for the planner)."""
+        return tuple(self.actions[i] for i in sorted(set(action_ids)))
