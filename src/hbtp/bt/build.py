@@ -1,0 +1,55 @@
+"""Build behavior trees from a search (Algorithm 1).
+
+The full tree is ``Fallback(goal, Sequence(c1, a1), ..., Sequence(cn, an))`` over every expanded
+condition in expansion order: it acts from any state that satisfies an explored condition. The
+path-only tree keeps just the conditions of the solution path (what the reference implementation
+outputs); it is smaller but gives up when a disturbance leaves that path.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence as Seq
+
+from hbtp.bt.nodes import Action, Condition, Fallback, Node, Sequence
+from hbtp.planning.result import Expansion, PlanResult
+
+
+def full_tree(expansions: Seq[Expansion]) -> Node:
+    """Every expanded condition as ``Sequence(c, a)`` under the goal's fallback."""
+    if not expansions:
+        raise ValueError("a tree needs at least the goal expansion")
+    goal = Condition(expansions[0].condition)
+    branches: list[Node] = [goal]
+    for expansion in expansions[1:]:
+        assert expansion.action is not None
+        branches.append(Sequence((Condition(expansion.condition), Action(expansion.action))))
+    return Fallback(tuple(branches))
+
+
+def path_tree(expansions: Seq[Expansion], final: int | None = None) -> Node:
+    """Only the solution path: the last expansion (or ``final``) and its ancestors."""
+    if not expansions:
+        raise ValueError("a tree needs at least the goal expansion")
+    index = len(expansions) - 1 if final is None else final
+    chain: list[Expansion] = []
+    while index > 0:
+        chain.append(expansions[index])
+        index = expansions[index].parent
+    chain.reverse()
+    goal = Condition(expansions[0].condition)
+    branches: list[Node] = [goal]
+    for expansion in chain:
+        assert expansion.action is not None
+        branches.append(Sequence((Condition(expansion.condition), Action(expansion.action))))
+    return Fallback(tuple(branches))
+
+
+def tree_of(result: PlanResult, kind: str = "full") -> Node:
+    """The tree of a planning result: ``full`` (default) or ``path``."""
+    if kind == "full":
+        return full_tree(result.expansions)
+    if kind == "path":
+        if not result.solved:
+            raise ValueError("a path-only tree needs a solved result")
+        return path_tree(result.expansions)
+    raise ValueError(f"unknown tree kind {kind!r}; choose full or path")

@@ -1,0 +1,109 @@
+"""``hbtp scenarios``, ``hbtp ground`` and ``hbtp export-pddl``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from hbtp.cli.options import echo_json, load_selected, scenario_options, write_files_atomically
+from hbtp.domains import load_scenario, scenario_names, write_domain, write_grounded, write_problem
+from hbtp.domains.lifted import And, AtomFormula
+from hbtp.domains.pddl_reader import read_domain_file, read_problem_file
+
+
+@click.command()
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def scenarios(as_json: bool) -> int:
+    """List the shipped scenarios with their sizes."""
+    rows = [load_scenario(name).summary() for name in scenario_names()]
+    if as_json:
+        echo_json(rows)
+        return 0
+    click.echo(f"{'name':16} {'actions':>8} {'action preds':>12} {'objects':>8} {'s0':>4}  title")
+    for row in rows:
+        click.echo(
+            f"{row['name']:16} {row['actions']:>8} {row['action_predicates']:>12} {row['objects']:>8} "
+            f"{row['s0']:>4}  {row['title']}"
+        )
+    return 0
+
+
+@click.command()
+@scenario_options
+@click.option("--names", is_flag=True, help="Print one grounded action name per line (Walk(apple)).")
+@click.option("--json", "as_json", is_flag=True, help="Print every grounded action with pre/add/del/cost.")
+def ground(
+    scenario: str | None,
+    pddl: tuple[str, str] | None,
+    object_categories: tuple[str, ...],
+    keep_fluent: tuple[str, ...],
+    mutex_file: str | None,
+    names: bool,
+    as_json: bool,
+) -> int:
+    """Ground a scenario or your PDDL files and show the result."""
+    loaded = load_selected(scenario, pddl, object_categories, keep_fluent, mutex_file)
+    task = loaded.task
+    if names:
+        click.echo("\n".join(a.name for a in task.actions))
+        return 0
+    if as_json:
+        echo_json(
+            {
+                **loaded.summary(),
+                "actions_detail": [
+                    {
+                        "name": a.name,
+                        "pre": task.names(a.pre),
+                        "add": task.names(a.add),
+                        "del": task.names(a.delete),
+                        "cost": a.cost,
+                    }
+                    for a in task.actions
+                ],
+                "initial_state": task.names(task.initial_state),
+            }
+        )
+        return 0
+    summary = loaded.summary()
+    for key in ("name", "actions", "action_predicates", "objects", "s0", "atoms", "mutex_groups"):
+        click.echo(f"{key:18} {summary[key]}")
+    click.echo(f"{'grounding_s':18} {loaded.load_seconds:.3f}")
+    return 0
+
+
+@click.command("export-pddl")
+@scenario_options
+@click.option("-g", "--goal", required=True, help='Goal, e.g. "IsIn_milk_fridge & IsClose_fridge".')
+@click.option("-o", "--out", "out_dir", required=True, type=click.Path(file_okay=False), help="Output folder.")
+@click.option(
+    "--lifted", is_flag=True, help="Write the lifted domain and problem instead of the grounded STRIPS encoding."
+)
+def export_pddl(
+    scenario: str | None,
+    pddl: tuple[str, str] | None,
+    object_categories: tuple[str, ...],
+    keep_fluent: tuple[str, ...],
+    mutex_file: str | None,
+    goal: str,
+    out_dir: str,
+    lifted: bool,
+) -> int:
+    """Write domain.pddl and problem.pddl for a goal (Fast Downward accepts the grounded encoding)."""
+    loaded = load_selected(scenario, pddl, object_categories, keep_fluent, mutex_file)
+    resolved = loaded.task.resolve_goal(goal)
+    out = Path(out_dir)
+    if lifted:
+        domain = read_domain_file(loaded.domain_file)
+        problem = read_problem_file(loaded.problem_file, domain)
+        atoms = tuple(AtomFormula(a.predicate, a.args) for a in resolved.atoms)
+        problem = type(problem)(
+            problem.name, problem.domain_name, problem.objects, problem.init, problem.numeric_init, And(atoms), True
+        )
+        domain_text, problem_text = write_domain(domain), write_problem(problem)
+    else:
+        domain_text, problem_text = write_grounded(loaded.task, resolved)
+    write_files_atomically({out / "domain.pddl": domain_text, out / "problem.pddl": problem_text})
+    click.echo(f"wrote {out / 'domain.pddl'} and {out / 'problem.pddl'}")
+    return 0

@@ -1,0 +1,144 @@
+"""``hbtp plan``: plan a behavior tree for a goal."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from hbtp.bt import render_text, size, tree_of
+from hbtp.bt.jsonio import tree_to_json
+from hbtp.cli.options import echo_json, load_selected, scenario_options, write_files_atomically
+from hbtp.datasets import read_dataset_file
+from hbtp.datasets.records import Record
+from hbtp.domains import Scenario
+from hbtp.errors import DatasetError, InputError
+from hbtp.llm.parse import parse_reply
+from hbtp.logic.task import Goal
+from hbtp.planning import PLANNERS, Hints, Limits, hints_from_names, plan
+from hbtp.planning.oracle import oracle_hints
+
+
+def hints_from_record(record: Record) -> Hints:
+    return hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
+
+
+def load_hints(source: str, loaded: Scenario, goal: Goal, limits: Limits) -> Hints | None:
+    """``none``, ``oracle`` (an optimal plan) or a file: a dataset record or a raw LLM reply."""
+    if source == "none":
+        return None
+    if source == "oracle":
+        return oracle_hints(loaded.task, goal, loaded.mutexes, limits)
+    path = Path(source)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as error:
+        raise InputError(f"{source}: cannot read hints file: {error.strerror}") from None
+    try:
+        records = read_dataset_file(path)
+    except DatasetError:
+        records = []
+    if records:
+        wanted = goal.ids
+        matching = [r for r in records if _goal_ids(loaded, r) == wanted]
+        if matching:
+            return hints_from_record(matching[0])
+        if len(records) == 1:
+            return hints_from_record(records[0])
+        raise InputError(f"{source}: none of its {len(records)} records has the goal {goal}")
+    parsed = parse_reply(text)
+    if not parsed.found:
+        raise InputError(
+            f"{source}: no hints found (expected 'Optimal Actions:' / 'Vital Action Predicates:' / "
+            "'Vital Objects:' lines, or 'Heuristic Path:' / 'Relevant ...')"
+        )
+    return parsed.hints
+
+
+def _goal_ids(loaded: Scenario, record: Record) -> frozenset[int] | None:
+    try:
+        return loaded.task.resolve_goal(record.goal).ids
+    except InputError:
+        return None
+
+
+@click.command("plan")
+@scenario_options
+@click.option("-g", "--goal", required=True, help='Goal, e.g. "IsIn_milk_fridge & IsClose_fridge".')
+@click.option("-p", "--planner", type=click.Choice(list(PLANNERS)), default="hbtp-s", show_default=True)
+@click.option(
+    "--hints", "hints_source", default="none", show_default=True, help="none, oracle, or a record/LLM-reply file."
+)
+@click.option("--space", type=click.Choice(["full", "pruned"]), help="Action space (default: pruned with hints).")
+@click.option(
+    "--heuristic", type=click.Choice(["none", "hmax"]), default="none", show_default=True, help="LLM-free heuristic."
+)
+@click.option("--alpha", type=float, default=10_000, show_default=True, help="HBTP-O discount divisor.")
+@click.option("-t", "--time-limit", type=float, default=60.0, show_default=True, help="Seconds.")
+@click.option("--max-expansions", type=int, help="Stop after this many expanded conditions.")
+@click.option("--memory-mb", type=float, help="Stop when the process grows beyond this size.")
+@click.option("--tree", "tree_kind", type=click.Choice(["full", "path"]), default="full", show_default=True)
+@click.option("-o", "--out", "out_file", type=click.Path(dir_okay=False), help="Write the tree as JSON.")
+@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON instead of the tree.")
+@click.option("--max-branches", type=int, default=40, show_default=True, help="Branches shown in the terminal.")
+def plan_command(
+    scenario: str | None,
+    pddl: tuple[str, str] | None,
+    object_categories: tuple[str, ...],
+    keep_fluent: tuple[str, ...],
+    mutex_file: str | None,
+    goal: str,
+    planner: str,
+    hints_source: str,
+    space: str | None,
+    heuristic: str,
+    alpha: float,
+    time_limit: float,
+    max_expansions: int | None,
+    memory_mb: float | None,
+    tree_kind: str,
+    out_file: str | None,
+    as_json: bool,
+    max_branches: int,
+) -> int:
+    """Plan a behavior tree that reaches GOAL; exit code 0 when solved, 1 when not."""
+    limits = Limits(time_s=time_limit, max_expansions=max_expansions, memory_mb=memory_mb)
+    loaded = load_selected(scenario, pddl, object_categories, keep_fluent, mutex_file)
+    task = loaded.task
+    resolved = task.resolve_goal(goal)
+    hints = load_hints(hints_source, loaded, resolved, limits)
+    chosen_space = space or ("pruned" if hints is not None else "full")
+    result = plan(
+        task,
+        resolved,
+        planner,
+        hints=hints,
+        space="pruned" if chosen_space == "pruned" else "full",
+        mutexes=loaded.mutexes,
+        heuristic="hmax" if heuristic == "hmax" else "none",
+        alpha=int(alpha) if float(alpha).is_integer() else alpha,
+        limits=limits,
+    )
+    tree = tree_of(result, tree_kind) if result.expansions and (result.solved or tree_kind == "full") else None
+    if out_file and tree is not None:
+        write_files_atomically({Path(out_file): tree_to_json(tree, task, scenario=loaded.name, goal=str(resolved))})
+    if as_json:
+        record = result.to_dict(task)
+        record["scenario"] = loaded.name
+        record["hints"] = hints_source if hints_source in ("none", "oracle") else "file"
+        if tree is not None:
+            nodes, depth = size(tree)
+            record["tree"] = {"kind": tree_kind, "nodes": nodes, "depth": depth}
+        echo_json(record)
+    else:
+        stats = result.stats
+        click.echo(
+            f"{result.status.value}: D(T)={result.cost}  explored |S-|={stats.explored}  "
+            f"generated={stats.generated}  time={stats.time_s * 1000:.1f} ms  |A|={stats.action_space}"
+            + (f"  ({result.message})" if result.message else "")
+        )
+        if result.solved:
+            click.echo("executes: " + (" -> ".join(task.actions[i].name for i in result.executed) or "(nothing)"))
+        if tree is not None:
+            click.echo(render_text(tree, task, max_children=max_branches))
+    return 0 if result.solved else 1

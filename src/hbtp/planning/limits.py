@@ -1,0 +1,72 @@
+"""Limits of a planning run: wall-clock time, expansions, memory.
+
+The search asks :class:`LimitWatch` after every expansion and every 512 generated children, so a run
+ends within a few milliseconds of its time limit; on a limit the result still carries the partial
+tree and the statistics.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+
+from hbtp.errors import InputError
+from hbtp.planning.result import Status
+
+_PAGE = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
+
+
+@dataclass(frozen=True)
+class Limits:
+    """``time_s``: wall-clock seconds; ``max_expansions``: conditions expanded; ``memory_mb``: resident size."""
+
+    time_s: float | None = None
+    max_expansions: int | None = None
+    memory_mb: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.time_s is not None and not self.time_s > 0:
+            raise InputError(f"time limit must be a positive number of seconds, not {self.time_s}")
+        if self.max_expansions is not None and self.max_expansions < 1:
+            raise InputError(f"expansion limit must be at least 1, not {self.max_expansions}")
+        if self.memory_mb is not None and not self.memory_mb > 0:
+            raise InputError(f"memory limit must be a positive number of MB, not {self.memory_mb}")
+
+
+def resident_mb() -> float:
+    """Current resident set size of this process in MB (Linux /proc; 0 where unavailable)."""
+    try:
+        with open("/proc/self/statm", encoding="ascii") as handle:
+            return int(handle.read().split()[1]) * _PAGE / 1e6
+    except (OSError, ValueError, IndexError):
+        return 0.0
+
+
+class LimitWatch:
+    """Checks the limits of one run."""
+
+    def __init__(self, limits: Limits, started: float) -> None:
+        self.limits = limits
+        self.deadline = started + limits.time_s if limits.time_s is not None else None
+
+    def timed_out(self) -> bool:
+        return self.deadline is not None and time.perf_counter() >= self.deadline
+
+    def check(self, expansions: int, generated: int) -> Status | None:
+        if self.timed_out():
+            return Status.TIMEOUT
+        if self.limits.max_expansions is not None and expansions >= self.limits.max_expansions:
+            return Status.NODE_LIMIT
+        if self.limits.memory_mb is not None and expansions % 256 == 0 and resident_mb() > self.limits.memory_mb:
+            return Status.MEMORY_LIMIT
+        return None
+
+    def reason(self, status: Status) -> str:
+        if status is Status.TIMEOUT:
+            return f"time limit of {self.limits.time_s} s reached"
+        if status is Status.NODE_LIMIT:
+            return f"expansion limit of {self.limits.max_expansions} reached"
+        if status is Status.MEMORY_LIMIT:
+            return f"memory limit of {self.limits.memory_mb} MB reached"
+        return ""

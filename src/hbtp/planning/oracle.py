@@ -1,0 +1,28 @@
+"""Oracle hints: the optimal plan of a task, as if an LLM had answered perfectly."""
+
+from __future__ import annotations
+
+from hbtp.domains.mutex import Mutexes
+from hbtp.errors import PlanningError
+from hbtp.logic.task import Goal, GroundTask
+from hbtp.planning.hints import Hints
+from hbtp.planning.limits import Limits
+from hbtp.planning.planners import plan
+
+
+def optimal_plan(
+    task: GroundTask, goal: Goal, mutexes: Mutexes | None = None, limits: Limits | None = None
+) -> list[int]:
+    """The actions of a cost-optimal plan (OBTEA with h_max over the full action space)."""
+    result = plan(task, goal, "obtea", space="full", mutexes=mutexes, heuristic="hmax", limits=limits)
+    if not result.solved:
+        raise PlanningError(f"no optimal plan for the oracle: {result.status.value} ({result.message})")
+    return list(result.solution)
+
+
+def oracle_hints(task: GroundTask, goal: Goal, mutexes: Mutexes | None = None, limits: Limits | None = None) -> Hints:
+    """p̂ = an optimal plan, Q̂ and Ô = its action predicates and objects."""
+    actions = [task.actions[i] for i in optimal_plan(task, goal, mutexes, limits)]
+    predicates = tuple(dict.fromkeys(a.predicate for a in actions))
+    objects = tuple(dict.fromkeys(o for a in actions for o in a.objects))
+    return Hints(tuple(a.name for a in actions), predicates, objects)
