@@ -2,6 +2,7 @@
 
 >>> task = (
 ...     DomainBuilder("kitchen")
+...     .constants(["self"])
 ...     .action("Walk(fridge)", pre=["IsStanding(self)"], add=["IsNear(self,fridge)"], cost=15)
 ...     .action("Open(fridge)", pre=["IsNear(self,fridge)", "IsClose(fridge)"],
 ...             add=["IsOpen(fridge)"], delete=["IsClose(fridge)"], cost=3)

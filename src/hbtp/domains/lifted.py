@@ -3,6 +3,9 @@
 Supported: STRIPS with ``:typing``, ``:equality``, ``:action-costs``, and conditions that depend only
 on static facts (``or``, ``not``, ``imply``, ``=``, ``forall``/``when`` in effects). Static parts are
 compiled away by :mod:`hbtp.domains.grounding`.
+
+Nodes keep the ``line`` they were read from, for messages; it takes no part in equality, so a domain
+read back from written text equals the original.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ class TypedName:
 class AtomFormula:
     predicate: str
     terms: tuple[str, ...]
-    line: int = 0
+    line: int = field(default=0, compare=False)
 
     def __str__(self) -> str:
         return f"({' '.join((self.predicate, *self.terms))})"
@@ -39,32 +42,32 @@ class AtomFormula:
 class Equals:
     left: str
     right: str
-    line: int = 0
+    line: int = field(default=0, compare=False)
 
 
 @dataclass(frozen=True, slots=True)
 class Not:
     operand: Formula
-    line: int = 0
+    line: int = field(default=0, compare=False)
 
 
 @dataclass(frozen=True, slots=True)
 class And:
     parts: tuple[Formula, ...]
-    line: int = 0
+    line: int = field(default=0, compare=False)
 
 
 @dataclass(frozen=True, slots=True)
 class Or:
     parts: tuple[Formula, ...]
-    line: int = 0
+    line: int = field(default=0, compare=False)
 
 
 @dataclass(frozen=True, slots=True)
 class Imply:
     antecedent: Formula
     consequent: Formula
-    line: int = 0
+    line: int = field(default=0, compare=False)
 
 
 Formula = AtomFormula | Equals | Not | And | Or | Imply
@@ -90,14 +93,14 @@ class AndEffect:
 class ForallEffect:
     variables: tuple[TypedName, ...]
     body: Effect
-    line: int = 0
+    line: int = field(default=0, compare=False)
 
 
 @dataclass(frozen=True, slots=True)
 class WhenEffect:
     condition: Formula
     body: Effect
-    line: int = 0
+    line: int = field(default=0, compare=False)
 
 
 @dataclass(frozen=True, slots=True)
@@ -105,7 +108,7 @@ class CostEffect:
     """``(increase (total-cost) N)`` or ``(increase (total-cost) (f ?x))`` with a static function f."""
 
     amount: int | AtomFormula
-    line: int = 0
+    line: int = field(default=0, compare=False)
 
 
 Effect = AddEffect | DeleteEffect | AndEffect | ForallEffect | WhenEffect | CostEffect
@@ -118,7 +121,7 @@ class ActionSchema:
     parameters: tuple[TypedName, ...]
     precondition: Formula
     effect: Effect
-    line: int = 0
+    line: int = field(default=0, compare=False)
 
 
 @dataclass(frozen=True)

@@ -6,6 +6,7 @@ objects). Anything outside the subset is rejected with the construct and its lin
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 
 from hbtp.domains.lifted import (
@@ -55,10 +56,12 @@ UNSUPPORTED_SECTIONS = {
 
 
 class _Reader:
-    """Shared state while reading one file: its name, for messages."""
+    """Shared state while reading one file: its name, and where each type name is first written, for messages."""
 
     def __init__(self, source: str) -> None:
         self.source = source
+        self.type_uses: dict[str, Symbol] = {}
+        self.declared_types: set[str] | None = None  # known once the domain's types are read
 
     def fail(self, message: str, where: Expr | None) -> PddlError:
         if where is None:
@@ -120,10 +123,21 @@ class _Reader:
 
     def type_spec(self, expr: Expr) -> tuple[str, ...]:
         if isinstance(expr, Symbol):
-            return (expr.text,)
-        if expr.head() != "either" or len(expr.items) < 2:
+            symbols = [expr]
+        elif expr.head() != "either" or len(expr.items) < 2:
             raise self.fail("expected a type or (either t1 t2 ...)", expr)
-        return tuple(self.expect_symbol(e, "a type").text for e in expr.items[1:])
+        else:
+            symbols = [self.expect_symbol(e, "a type") for e in expr.items[1:]]
+        for symbol in symbols:
+            self.type_uses.setdefault(symbol.text, symbol)
+        return tuple(symbol.text for symbol in symbols)
+
+    def check_types(self, names: Iterable[TypedName], what: str, declared: set[str]) -> None:
+        """Reject a type that is not declared, pointing at the first place it is written."""
+        for typed in names:
+            for t in typed.types:
+                if t not in declared:
+                    raise self.fail(f"{what}unknown type {t!r} (of {typed.name!r})", self.type_uses.get(t))
 
     # ------------------------------------------------------------ formulas
     def formula(self, expr: Expr, context: _Scope) -> Formula:
@@ -196,6 +210,8 @@ class _Reader:
             if len(args) != 2:
                 raise self.fail("(forall (?vars) effect) takes two parts", node)
             variables = self.typed_list(self.expect_list(args[0], "(?vars)").items, variables=True)
+            if self.declared_types is not None:
+                self.check_types(variables, "", self.declared_types)
             scope = context.extended(variables)
             return ForallEffect(tuple(variables), self.effect(args[1], scope), node.line)
         if head == "when":
@@ -317,10 +333,8 @@ def read_domain(text: str, source: str = "<domain>") -> Domain:
             raise reader.fail(f"unknown domain section {head or '(list)'}", node)
 
     declared_types = {OBJECT_TYPE, *types, *types.values()}
-    for typed in [*constants, *(p for params in predicates.values() for p in params)]:
-        for t in typed.types:
-            if t not in declared_types:
-                raise reader.fail(f"unknown type {t!r} (of {typed.name!r})", None)
+    reader.check_types([*constants, *(p for params in predicates.values() for p in params)], "", declared_types)
+    reader.declared_types = declared_types
     _check_type_cycles(reader, types)
 
     scope = _Scope(predicates, functions, {c.name for c in constants}, set())
@@ -384,10 +398,7 @@ def _read_action(reader: _Reader, node: SList, scope: _Scope, declared_types: se
         if params_node is not None
         else []
     )
-    for param in parameters:
-        for t in param.types:
-            if t not in declared_types:
-                raise reader.fail(f"action {name!r}: unknown type {t!r}", params_node)
+    reader.check_types(parameters, f"action {name!r}: ", declared_types)
     inner = scope.extended(parameters)
     pre_node = fields.get(":precondition")
     precondition: Formula = And(())
@@ -434,10 +445,8 @@ def read_problem(text: str, domain: Domain, source: str = "<problem>") -> Proble
 
     declared_types = {OBJECT_TYPE, *domain.types, *domain.types.values()}
     constants = {c.name for c in domain.constants}
+    reader.check_types(objects, "", declared_types)
     for obj in objects:
-        for t in obj.types:
-            if t not in declared_types:
-                raise reader.fail(f"unknown type {t!r} of object {obj.name!r}", None)
         if obj.name in constants:
             raise reader.fail(f"object {obj.name!r} is already a domain constant", None)
     scope = _Scope(domain.predicates, domain.functions, constants | {o.name for o in objects}, set())

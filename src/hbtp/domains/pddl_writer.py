@@ -32,10 +32,14 @@ from hbtp.logic.task import Goal, GroundTask
 
 
 def _typed(names: Iterable[TypedName]) -> str:
+    """``a b - t c - (either u v) d``. A name of type object is written bare only when no typed name
+    follows it: in ``a c - t`` the type t would also apply to ``a``."""
+    names = list(names)
+    last_typed = max((i for i, t in enumerate(names) if t.types != (OBJECT_TYPE,)), default=-1)
     parts: list[str] = []
-    for typed in names:
+    for index, typed in enumerate(names):
         if typed.types == (OBJECT_TYPE,):
-            parts.append(typed.name)
+            parts.append(typed.name if index > last_typed else f"{typed.name} - {OBJECT_TYPE}")
         elif len(typed.types) == 1:
             parts.append(f"{typed.name} - {typed.types[0]}")
         else:

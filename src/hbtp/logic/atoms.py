@@ -57,7 +57,7 @@ def parse_atom(text: str) -> Atom:
 
 
 def split_conjunction(text: str) -> list[str]:
-    """Split ``A & B`` (also ``A and B``, ``A, B`` between paren-form atoms) into atom texts."""
+    """Split ``A & B & C`` into the texts of its conjuncts (``&`` is the only connective)."""
     parts: list[str] = []
     depth = 0
     current: list[str] = []

@@ -1,0 +1,225 @@
+"""The grounded STRIPS task: applicability, progression, regression, execution and goal resolution."""
+
+from __future__ import annotations
+
+import pytest
+
+from hbtp.domains import DomainBuilder, Scenario
+from hbtp.errors import InputError, UnknownSymbolError
+from hbtp.logic import Atom, GroundAction, GroundTask
+
+
+def _action(pre: set[int], add: set[int], delete: set[int], cost: int = 1) -> GroundAction:
+    return GroundAction(0, Atom("A", ()), frozenset(pre), frozenset(add), frozenset(delete), cost)
+
+
+@pytest.fixture
+def kitchen() -> GroundTask:
+    """Walk to the fridge, open it, put the milk in; a lamp nothing can switch on."""
+    return (
+        DomainBuilder("kitchen")
+        .constants(["self"])
+        .action("Walk(fridge)", pre=["IsStanding(self)"], add=["IsNear(self,fridge)"], cost=15)
+        .action(
+            "Open(fridge)",
+            pre=["IsNear(self,fridge)", "IsClose(fridge)"],
+            add=["IsOpen(fridge)"],
+            delete=["IsClose(fridge)"],
+            cost=3,
+        )
+        .action(
+            "PutIn(milk,fridge)",
+            pre=["IsHolding(self,milk)", "IsNear(self,fridge)", "IsOpen(fridge)"],
+            add=["IsIn(milk,fridge)"],
+            delete=["IsHolding(self,milk)"],
+            cost=10,
+        )
+        .action("Wait(lamp)", pre=["IsSwitchedOn(lamp)"], add=["IsSeen(lamp)"])
+        .initial(["IsStanding(self)", "IsClose(fridge)", "IsHolding(self,milk)"])
+        .build()
+    )
+
+
+def _state(task: GroundTask, *names: str) -> frozenset[int]:
+    return frozenset(task.atom_id(n) for n in names)
+
+
+# ------------------------------------------------------------------ semantics
+def test_applicable_when_precondition_is_a_subset_of_the_state() -> None:
+    action = _action(pre={0, 1}, add={2}, delete=set())
+    assert action.applicable(frozenset({0, 1}))
+    assert action.applicable(frozenset({0, 1, 5}))
+    assert not action.applicable(frozenset({0}))
+    assert not action.applicable(frozenset())
+    assert _action(pre=set(), add={1}, delete=set()).applicable(frozenset())
+
+
+def test_progression_is_state_minus_delete_union_add() -> None:
+    action = _action(pre={0}, add={1, 4}, delete={0, 2})
+    assert action.progress(frozenset({0, 2, 3})) == frozenset({1, 3, 4})
+    # Deleting an atom that is not there changes nothing; adding one already there neither.
+    assert action.progress(frozenset({0, 1})) == frozenset({1, 4})
+
+
+def test_progression_adds_win_over_deletes() -> None:
+    action = _action(pre=set(), add={1}, delete={1})
+    assert action.progress(frozenset({1})) == frozenset({1})
+    assert action.progress(frozenset()) == frozenset({1})
+
+
+def test_regression_is_pre_union_condition_minus_add() -> None:
+    action = _action(pre={0, 1}, add={2}, delete={0})
+    assert action.regress(frozenset({2, 3})) == frozenset({0, 1, 3})
+    assert action.regress(frozenset({2})) == frozenset({0, 1})
+    # An action that achieves nothing of the condition still regresses it (the planner filters these).
+    assert action.regress(frozenset({3})) == frozenset({0, 1, 3})
+
+
+def test_regression_is_undefined_when_the_action_deletes_part_of_the_condition() -> None:
+    action = _action(pre={0, 1}, add={2}, delete={0})
+    assert action.regress(frozenset({0, 2})) is None
+    assert action.regress(frozenset({0})) is None
+
+
+def test_regression_and_progression_agree() -> None:
+    # Applying the action in any state that satisfies the regressed condition reaches the condition.
+    action = _action(pre={0, 1}, add={2}, delete={0, 4})
+    condition = frozenset({2, 3})
+    regressed = action.regress(condition)
+    assert regressed is not None
+    assert action.applicable(regressed)
+    assert condition <= action.progress(regressed)
+    assert condition <= action.progress(regressed | {4, 5})
+
+
+def test_action_name_predicate_and_objects() -> None:
+    action = GroundAction(3, Atom("PutIn", ("milk", "fridge")), frozenset(), frozenset(), frozenset(), 10)
+    assert action.name == "PutIn(milk,fridge)"
+    assert action.predicate == "PutIn"
+    assert action.objects == ("milk", "fridge")
+
+
+# ------------------------------------------------------------------ execution
+def test_execute_runs_a_valid_plan(kitchen: GroundTask) -> None:
+    plan = [kitchen.action(n) for n in ("Walk(fridge)", "Open(fridge)", "PutIn(milk,fridge)")]
+    state, done = kitchen.execute(plan)
+    assert done == 3
+    assert kitchen.names(state) == [
+        "IsIn(milk,fridge)",
+        "IsNear(self,fridge)",
+        "IsOpen(fridge)",
+        "IsStanding(self)",
+    ]
+
+
+def test_execute_stops_at_the_first_inapplicable_action(kitchen: GroundTask) -> None:
+    walk, open_, put_in = (kitchen.action(n) for n in ("Walk(fridge)", "Open(fridge)", "PutIn(milk,fridge)"))
+    # PutIn needs the fridge open: execution stops there, and Open (applicable later) is never run.
+    state, done = kitchen.execute([walk, put_in, open_])
+    assert done == 1
+    assert state == walk.progress(kitchen.initial_state)
+    assert kitchen.atom_id("IsOpen(fridge)") not in state
+
+
+def test_execute_from_a_given_state_and_empty_plan(kitchen: GroundTask) -> None:
+    assert kitchen.execute([]) == (kitchen.initial_state, 0)
+    start = _state(kitchen, "IsNear(self,fridge)", "IsClose(fridge)")
+    state, done = kitchen.execute([kitchen.action("Open(fridge)")], start)
+    assert done == 1
+    assert state == _state(kitchen, "IsNear(self,fridge)", "IsOpen(fridge)")
+    state, done = kitchen.execute([kitchen.action("Walk(fridge)")], start)
+    assert (state, done) == (start, 0)
+
+
+# -------------------------------------------------------------------- lookups
+def test_lookups_accept_both_spellings(kitchen: GroundTask) -> None:
+    assert kitchen.action("PutIn_milk_fridge") is kitchen.action("PutIn(milk,fridge)")
+    assert kitchen.atom_id("IsIn_milk_fridge") == kitchen.atom_id(Atom("IsIn", ("milk", "fridge")))
+    assert kitchen.atom(kitchen.atom_id("IsOpen(fridge)")) == Atom("IsOpen", ("fridge",))
+
+
+def test_unknown_lookups_raise(kitchen: GroundTask) -> None:
+    with pytest.raises(UnknownSymbolError, match="not a grounded action"):
+        kitchen.action("Close(fridge)")
+    with pytest.raises(UnknownSymbolError, match="never occurs"):
+        kitchen.atom_id("IsIn(fridge,fridge)")
+    with pytest.raises(UnknownSymbolError, match="unknown predicate"):
+        kitchen.atom_id("IsBroken(fridge)")
+
+
+def test_achievers_and_action_predicates(kitchen: GroundTask) -> None:
+    assert [kitchen.actions[i].name for i in kitchen.achievers[kitchen.atom_id("IsOpen(fridge)")]] == ["Open(fridge)"]
+    assert kitchen.achievers[kitchen.atom_id("IsStanding(self)")] == ()
+    assert kitchen.action_predicates == ("Open", "PutIn", "Wait", "Walk")
+    assert [a.name for a in kitchen.restricted([2, 0, 2])] == [kitchen.actions[0].name, kitchen.actions[2].name]
+
+
+# --------------------------------------------------------------- resolve_goal
+def test_resolve_goal_from_text_and_from_atoms(kitchen: GroundTask) -> None:
+    goal = kitchen.resolve_goal("IsIn_milk_fridge & IsClose(fridge)")
+    assert goal.atoms == (Atom("IsIn", ("milk", "fridge")), Atom("IsClose", ("fridge",)))
+    assert goal.ids == _state(kitchen, "IsIn(milk,fridge)", "IsClose(fridge)")
+    assert goal.unreachable == ()
+    assert str(goal) == "IsIn_milk_fridge & IsClose_fridge"
+    assert kitchen.resolve_goal(["IsIn(milk,fridge)", Atom("IsClose", ("fridge",))]) == goal
+
+
+@pytest.mark.parametrize(
+    ("goal", "message"),
+    [
+        ("IsBroken(fridge)", "unknown predicate 'IsBroken'"),
+        ("IsOpen(oven)", "unknown object 'oven'"),
+        ("IsOpen(fridge,milk)", "takes 1 argument"),
+        ("IsIn_milk", "takes 2 argument"),
+        ("IsOpen(fridge) & IsOpen(oven)", "unknown object 'oven'"),
+    ],
+)
+def test_resolve_goal_rejects_unknown_symbols(kitchen: GroundTask, goal: str, message: str) -> None:
+    with pytest.raises(UnknownSymbolError, match=message):
+        kitchen.resolve_goal(goal)
+
+
+def test_resolve_goal_rejects_empty_goals(kitchen: GroundTask) -> None:
+    with pytest.raises(InputError, match="empty goal"):
+        kitchen.resolve_goal("")
+    with pytest.raises(InputError, match="empty goal"):
+        kitchen.resolve_goal([])
+
+
+def test_literal_that_is_never_grounded_is_unreachable(kitchen: GroundTask) -> None:
+    # Well formed (known predicate and objects) but no action mentions it.
+    goal = kitchen.resolve_goal("IsIn(fridge,milk) & IsOpen(fridge)")
+    assert goal.unreachable == (Atom("IsIn", ("fridge", "milk")),)
+    assert goal.ids == _state(kitchen, "IsOpen(fridge)")
+
+
+def test_literal_without_achiever_is_unreachable_unless_true_in_s0(kitchen: GroundTask) -> None:
+    # IsSwitchedOn(lamp) occurs (as a precondition) but nothing adds it and s0 lacks it.
+    assert kitchen.resolve_goal("IsSwitchedOn(lamp)").unreachable == (Atom("IsSwitchedOn", ("lamp",)),)
+    # IsStanding(self) has no achiever either, but it already holds.
+    assert kitchen.resolve_goal("IsStanding(self)").unreachable == ()
+
+
+def test_static_facts_are_not_goals(robothow_small: Scenario) -> None:
+    task = robothow_small.task
+    assert "grabbable" not in task.predicates
+    with pytest.raises(InputError, match="static fact") as info:
+        task.resolve_goal("IsOpen(fridge) & grabbable(apple)")
+    assert not isinstance(info.value, UnknownSymbolError)
+    # A static predicate is still checked for its arity and objects.
+    with pytest.raises(UnknownSymbolError, match="takes 1 argument"):
+        task.resolve_goal("grabbable(apple,plate)")
+
+
+def test_unreachable_literals_of_a_scenario(robothow_small: Scenario) -> None:
+    task = robothow_small.task
+    # The fridge has a plug but no switch: IsSwitchedOff(fridge) is needed by PlugOut(fridge) yet never holds.
+    goal = task.resolve_goal("IsSwitchedOff(fridge) & IsOn(wine,wine) & IsOpen(fridge)")
+    assert set(goal.unreachable) == {Atom("IsOn", ("wine", "wine")), Atom("IsSwitchedOff", ("fridge",))}
+    assert goal.ids == {task.atom_id("IsSwitchedOff(fridge)"), task.atom_id("IsOpen(fridge)")}
+
+
+def test_categories_are_unary_static_facts(robothow_small: Scenario) -> None:
+    categories = robothow_small.task.categories
+    assert categories["grabbable"] == ("apple", "cutlets", "kitchenknife", "plate", "rag", "wine")
+    assert categories["cleaning_tool"] == ("rag",)
