@@ -30,7 +30,7 @@ import heapq
 import logging
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Literal
@@ -63,7 +63,7 @@ class SearchConfig:
 class _Node:
     """Search bookkeeping for one condition (mutable, internal)."""
 
-    __slots__ = ("action", "closed", "cost", "g", "owed", "parent")
+    __slots__ = ("action", "closed", "cost", "g", "owed", "parent", "peek", "pending", "seen")
 
     def __init__(
         self, g: Number, cost: int, owed: tuple[int, ...], parent: frozenset[int] | None, action: int | None
@@ -74,6 +74,9 @@ class _Node:
         self.parent = parent
         self.action = action
         self.closed = False
+        self.pending: Iterator[tuple[Number, int]] | None = None
+        self.peek: tuple[Number, int] | None = None
+        self.seen: set[int] | None = None
 
 
 def search(
@@ -89,197 +92,294 @@ def search(
     """Run the backward search for ``goal`` with the action space ``actions``."""
     started = time.perf_counter()
     limits = limits or Limits()
-    watch = LimitWatch(limits, started)
     space = len(actions)
 
-    def finish(status: Status, message: str = "", **stats: int) -> PlanResult:
-        return PlanResult(
-            status,
-            config.name,
-            goal,
-            message=message,
-            stats=SearchStats(time_s=time.perf_counter() - started, action_space=space, **stats),
-        )
+    def finish(status: Status, message: str) -> PlanResult:
+        stats = SearchStats(time_s=time.perf_counter() - started, action_space=space)
+        return PlanResult(status, config.name, goal, message=message, stats=stats)
 
     if goal.unreachable:
         names = ", ".join(str(a) for a in goal.unreachable)
         return finish(Status.UNSOLVABLE, f"no action makes {names} true and s0 does not hold it")
-    goal_condition = goal.ids
     if mutexes is not None:
-        clash = mutexes.conflict(goal_condition)
+        clash = mutexes.conflict(goal.ids)
         if clash is not None:
             names = " and ".join(task.names(clash))
             return finish(Status.UNSOLVABLE, f"the goal asks for {names}, which cannot hold together")
-
     table: list[float] | None = None
     if config.heuristic == "hmax":
         table = hmax_table(task, actions)
-        dead = [a for a in sorted(goal_condition) if math.isinf(table[a])]
+        dead = [a for a in sorted(goal.ids) if math.isinf(table[a])]
         if dead:
             names = ", ".join(task.names(dead))
             return finish(Status.UNSOLVABLE, f"{names} cannot be reached from s0 with this action space")
+    return _Search(task, goal, actions, config, mutexes, hints, limits, table, started).run()
 
-    # --------------------------------------------------------- step costs
-    path_index: dict[int, int] = {}
-    initial_owed: list[int] = []
-    if hints is not None and config.step_cost in ("optimal-heuristic", "satisficing-heuristic"):
-        for action_id, count in sorted(hints.owed.items()):
-            path_index[action_id] = len(initial_owed)
-            initial_owed.append(count)
-    alpha = config.alpha
-    scaled = config.step_cost == "optimal-heuristic" and isinstance(alpha, int)
-    full_cost: dict[int, Number] = {}
-    owed_cost: dict[int, Number] = {}
-    for action in actions:
-        if config.step_cost == "unit":
-            full_cost[action.index] = 1
-        elif config.step_cost == "optimal-heuristic":
-            full_cost[action.index] = action.cost * alpha if scaled else action.cost
-            owed_cost[action.index] = action.cost if scaled else Fraction(action.cost) / Fraction(alpha)
-        elif config.step_cost == "satisficing-heuristic":
-            full_cost[action.index] = action.cost
-            owed_cost[action.index] = 0
-        else:
-            full_cost[action.index] = action.cost
-    astar = table is not None and config.step_cost == "cost"
 
-    # -------------------------------------------------------- action index
-    adders: dict[int, list[GroundAction]] = {}
-    for action in actions:
-        for atom in action.add:
-            adders.setdefault(atom, []).append(action)
-    no_adders: list[GroundAction] = []
+class _Search:
+    """One run of the search (see the module docstring)."""
 
-    partners = mutexes.partners if mutexes is not None else None
-    nogoods = mutexes.nogoods_by_atom if mutexes is not None and mutexes.nogoods else None
-    s0 = task.initial_state
+    def __init__(
+        self,
+        task: GroundTask,
+        goal: Goal,
+        actions: Sequence[GroundAction],
+        config: SearchConfig,
+        mutexes: Mutexes | None,
+        hints: ResolvedHints | None,
+        limits: Limits,
+        table: list[float] | None,
+        started: float,
+    ) -> None:
+        self.task = task
+        self.goal = goal
+        self.config = config
+        self.table = table
+        self.started = started
+        self.watch = LimitWatch(limits, started)
+        self.space = len(actions)
+        self.astar = table is not None and config.step_cost == "cost"
+        self.partners = mutexes.partners if mutexes is not None else None
+        self.nogoods = mutexes.nogoods_by_atom if mutexes is not None and mutexes.nogoods else None
+        self.s0 = task.initial_state
 
-    # ------------------------------------------------------------ the loop
-    owed0 = tuple(initial_owed)
-    nodes: dict[frozenset[int], _Node] = {goal_condition: _Node(0, 0, owed0, None, None)}
-    counter = 0
-    open_list: list[tuple[Number, int, int, int, Number, frozenset[int]]] = []
+        # Step costs: the full cost of every action, and the reduced cost while p̂ owes it.
+        self.path_index: dict[int, int] = {}
+        initial_owed: list[int] = []
+        if hints is not None and config.step_cost in ("optimal-heuristic", "satisficing-heuristic"):
+            for action_id, count in sorted(hints.owed.items()):
+                self.path_index[action_id] = len(initial_owed)
+                initial_owed.append(count)
+        self.initial_owed = tuple(initial_owed)
+        alpha = config.alpha
+        scaled = config.step_cost == "optimal-heuristic" and isinstance(alpha, int)
+        self.full_cost: dict[int, Number] = {}
+        self.owed_cost: dict[int, Number] = {}
+        for action in actions:
+            if config.step_cost == "unit":
+                self.full_cost[action.index] = 1
+            elif config.step_cost == "optimal-heuristic":
+                self.full_cost[action.index] = action.cost * alpha if scaled else action.cost
+                self.owed_cost[action.index] = action.cost if scaled else Fraction(action.cost) / Fraction(alpha)
+            elif config.step_cost == "satisficing-heuristic":
+                self.full_cost[action.index] = action.cost
+                self.owed_cost[action.index] = 0
+            else:
+                self.full_cost[action.index] = action.cost
 
-    def priority(condition: frozenset[int], g: Number) -> Number:
-        if astar and table is not None:
+        # Achievers of each atom, sorted by a lower bound of how much a child's priority exceeds
+        # its parent's g: the step cost, plus h_max of the preconditions under A*. Actions with a
+        # precondition unreachable in the relaxation can never help and are left out.
+        self.adders: dict[int, list[tuple[Number, int]]] = {}
+        for action in actions:
+            bound: Number = self.full_cost[action.index]
+            if table is not None:
+                pre_cost = max((table[p] for p in action.pre), default=0.0)
+                if math.isinf(pre_cost):
+                    continue
+                if self.astar:
+                    bound = bound + pre_cost
+            for atom in action.add:
+                self.adders.setdefault(atom, []).append((bound, action.index))
+        for entries in self.adders.values():
+            entries.sort()
+
+        self.nodes: dict[frozenset[int], _Node] = {}
+        self.open: list[tuple[Number, int, int, int, Number, frozenset[int], bool]] = []
+        self.counter = 0
+        self.expanded_index: dict[int, list[tuple[frozenset[int], Number]]] = {}
+        self.expansions: list[Expansion] = []
+        self.position: dict[frozenset[int], int] = {}
+        self.generated = self.pruned_subset = self.pruned_mutex = 0
+        self.stopped: Status | None = None
+
+    # ----------------------------------------------------------------- helpers
+    def priority(self, condition: frozenset[int], g: Number) -> Number:
+        if self.astar and self.table is not None:
+            table = self.table
             return g + max((table[a] for a in condition), default=0.0)
         return g
 
-    heapq.heappush(
-        open_list,
-        (priority(goal_condition, 0), sum(owed0), len(goal_condition - s0), counter, 0, goal_condition),
-    )
-    expanded_index: dict[int, list[tuple[frozenset[int], Number]]] = {}
-    expansions: list[Expansion] = []
-    position: dict[frozenset[int], int] = {}
-    generated = pruned_subset = pruned_mutex = pruned_dead = 0
+    def push(self, condition: frozenset[int], node: _Node, priority: Number, resume: bool) -> None:
+        self.counter += 1
+        heapq.heappush(
+            self.open,
+            (priority, sum(node.owed), len(condition - self.s0), self.counter, node.g, condition, resume),
+        )
 
-    def dominated(condition: frozenset[int], g: Number) -> bool:
+    def dominated(self, condition: frozenset[int], g: Number) -> bool:
+        """Whether an expanded subset of ``condition`` was reached at a cost no higher than ``g``."""
+        index = self.expanded_index
         for atom in condition:
-            for other, other_g in expanded_index.get(atom, ()):
+            for other, other_g in index.get(atom, ()):
                 if other_g <= g and other <= condition:
                     return True
         return False
 
-    final: frozenset[int] | None = None
-    status = Status.UNSOLVABLE
-    while open_list:
-        _, _, _, _, entry_g, condition = heapq.heappop(open_list)
-        node = nodes[condition]
-        if node.closed or node.g != entry_g:
-            continue  # stale entry
-        if condition is not goal_condition and dominated(condition, node.g):
-            pruned_subset += 1
-            continue
-        node.closed = True
-        parent_position = -1 if node.parent is None else position[node.parent]
-        position[condition] = len(expansions)
-        expansions.append(Expansion(condition, node.action, parent_position, node.cost))
-        key = min(condition, key=lambda a: len(expanded_index.get(a, ())), default=None)
-        if key is not None:
-            expanded_index.setdefault(key, []).append((condition, node.g))
-        if condition <= s0:
-            final = condition
-            status = Status.SOLVED
-            break
-        stop = watch.check(len(expansions), generated)
-        if stop is not None:
-            status = stop
-            break
-
-        seen: set[int] = set()
-        candidates: list[GroundAction] = []
-        for atom in sorted(condition):
-            for action in adders.get(atom, no_adders):
-                if action.index not in seen:
-                    seen.add(action.index)
-                    candidates.append(action)
-        for count, action in enumerate(candidates):
-            if count & 511 == 511 and watch.timed_out():
+    # -------------------------------------------------------------------- run
+    def run(self) -> PlanResult:
+        goal_condition = self.goal.ids
+        root = _Node(0, 0, self.initial_owed, None, None)
+        self.nodes[goal_condition] = root
+        self.push(goal_condition, root, self.priority(goal_condition, 0), False)
+        final: frozenset[int] | None = None
+        open_list = self.open
+        nodes = self.nodes
+        while open_list and self.stopped is None:
+            priority, _, _, _, entry_g, condition, resume = heapq.heappop(open_list)
+            node = nodes[condition]
+            if resume:
+                self.generate(condition, node, priority)
+                continue
+            if node.closed or node.g != entry_g:
+                continue  # stale entry
+            if condition is not goal_condition and self.dominated(condition, node.g):
+                self.pruned_subset += 1
+                continue
+            self.close(condition, node)
+            if condition <= self.s0:
+                final = condition
                 break
-            if not condition.isdisjoint(action.delete):
-                continue
-            rest = condition - action.add
-            child = action.pre | rest
-            if partners is not None and _clashes(action.pre, rest, partners, nogoods, child):
-                pruned_mutex += 1
-                continue
-            if table is not None and any(math.isinf(table[a]) for a in action.pre):
-                pruned_dead += 1
-                continue
-            slot = path_index.get(action.index)
-            owed = node.owed
-            if slot is not None and owed[slot] > 0:
-                step = owed_cost[action.index]
-                owed = (*owed[:slot], owed[slot] - 1, *owed[slot + 1 :])
-            else:
-                step = full_cost[action.index]
-            g = node.g + step
-            known = nodes.get(child)
-            if known is not None and (known.closed or known.g <= g):
-                continue
-            if dominated(child, g):
-                pruned_subset += 1
-                continue
-            nodes[child] = _Node(g, node.cost + action.cost, owed, condition, action.index)
-            counter += 1
-            generated += 1
-            heapq.heappush(open_list, (priority(child, g), sum(owed), len(child - s0), counter, g, child))
+            self.stopped = self.watch.check(len(self.expansions), self.generated)
+            if self.stopped is not None:
+                break
+            self.start_expansion(condition, node, priority)
+        return self.result(final)
 
-    elapsed = time.perf_counter() - started
-    stats = SearchStats(
-        explored=len(expansions),
-        generated=generated,
-        pruned_subset=pruned_subset,
-        pruned_mutex=pruned_mutex,
-        pruned_dead_end=pruned_dead,
-        time_s=elapsed,
-        action_space=space,
-    )
-    solution: tuple[int, ...] = ()
-    executed: tuple[int, ...] = ()
-    cost: int | None = None
-    message = ""
-    if final is not None:
+    def close(self, condition: frozenset[int], node: _Node) -> None:
+        node.closed = True
+        parent_position = -1 if node.parent is None else self.position[node.parent]
+        self.position[condition] = len(self.expansions)
+        self.expansions.append(Expansion(condition, node.action, parent_position, node.cost))
+        index = self.expanded_index
+        key = min(condition, key=lambda a: len(index.get(a, ())), default=None)
+        if key is not None:
+            index.setdefault(key, []).append((condition, node.g))
+
+    def start_expansion(self, condition: frozenset[int], node: _Node, priority: Number) -> None:
+        """Generate the children of a newly expanded condition that fit under ``priority``.
+
+        Actions that p̂ still owes on this path are generated at once (their step is reduced);
+        the others come lazily, in order of their bound.
+        """
+        node.seen = set()
+        if self.path_index:
+            owed = node.owed
+            for action_id, slot in self.path_index.items():
+                if owed[slot] > 0:
+                    action = self.task.actions[action_id]
+                    if not action.add.isdisjoint(condition) and action_id in self.full_cost:
+                        node.seen.add(action_id)
+                        self.child(condition, node, action)
+        lists = [self.adders[a] for a in sorted(condition) if a in self.adders]
+        if not lists:
+            return
+        node.pending = iter(lists[0]) if len(lists) == 1 else heapq.merge(*lists)
+        self.generate(condition, node, priority)
+
+    def generate(self, condition: frozenset[int], node: _Node, threshold: Number) -> None:
+        """Generate children whose bound fits under ``threshold``; queue the rest for later."""
+        pending = node.pending
+        seen = node.seen
+        if pending is None or seen is None:
+            return
+        limit = threshold - node.g
+        actions = self.task.actions
+        count = 0
+        while True:
+            item = node.peek
+            if item is None:
+                item = next(pending, None)
+                if item is None:
+                    node.pending = None
+                    return
+            else:
+                node.peek = None
+            bound, index = item
+            if bound > limit:
+                node.peek = item
+                self.push(condition, node, node.g + bound, True)
+                return
+            if index in seen:
+                continue
+            seen.add(index)
+            self.child(condition, node, actions[index])
+            count += 1
+            if count & 511 == 0 and self.watch.timed_out():
+                self.stopped = Status.TIMEOUT
+                return
+
+    def child(self, condition: frozenset[int], node: _Node, action: GroundAction) -> None:
+        """Regress ``condition`` through ``action`` and queue the result unless it is pruned."""
+        if not condition.isdisjoint(action.delete):
+            return
+        rest = condition - action.add
+        pre = action.pre
+        result = pre | rest
+        partners = self.partners
+        if partners is not None and _clashes(pre, rest, partners, self.nogoods, result):
+            self.pruned_mutex += 1
+            return
+        slot = self.path_index.get(action.index)
+        owed = node.owed
+        if slot is not None and owed[slot] > 0:
+            step = self.owed_cost[action.index]
+            owed = (*owed[:slot], owed[slot] - 1, *owed[slot + 1 :])
+        else:
+            step = self.full_cost[action.index]
+        g = node.g + step
+        known = self.nodes.get(result)
+        if known is not None and (known.closed or known.g <= g):
+            return
+        if self.dominated(result, g):
+            self.pruned_subset += 1
+            return
+        new = _Node(g, node.cost + action.cost, owed, condition, action.index)
+        self.nodes[result] = new
+        self.generated += 1
+        self.push(result, new, self.priority(result, g), False)
+
+    def result(self, final: frozenset[int] | None) -> PlanResult:
+        task = self.task
+        stats = SearchStats(
+            explored=len(self.expansions),
+            generated=self.generated,
+            pruned_subset=self.pruned_subset,
+            pruned_mutex=self.pruned_mutex,
+            time_s=time.perf_counter() - self.started,
+            action_space=self.space,
+        )
+        expansions = tuple(self.expansions)
+        if final is None:
+            status = self.stopped or Status.UNSOLVABLE
+            message = (
+                self.watch.reason(status)
+                if self.stopped is not None
+                else "no condition that holds in s0 can be reached (open list emptied)"
+            )
+            return PlanResult(status, self.config.name, self.goal, expansions, stats=stats, message=message)
         path: list[int] = []
         current: frozenset[int] | None = final
         while current is not None:
-            current_node = nodes[current]
+            current_node = self.nodes[current]
             if current_node.action is not None:
                 path.append(current_node.action)
             current = current_node.parent
-        solution = tuple(path)
-        run = execute_expansions(task, goal_condition, expansions)
-        executed, cost = run.actions, run.cost
-        if not run.reached:
-            message = "the tree did not reach the goal when executed from s0"
-            status = Status.UNSOLVABLE
-            log.error("%s: %s (this is a bug)", config.name, message)
-    elif status is Status.UNSOLVABLE:
-        message = "no condition that holds in s0 can be reached (open list emptied)"
-    else:
-        message = watch.reason(status)
-    return PlanResult(status, config.name, goal, tuple(expansions), solution, executed, cost, stats, message)
+        run = execute_expansions(task, self.goal.ids, expansions)
+        if not run.reached:  # cannot happen: every Sequence(c, a) leads to an earlier condition
+            log.error("%s: the tree did not reach the goal from s0 (a bug)", self.config.name)
+            return PlanResult(
+                Status.UNSOLVABLE,
+                self.config.name,
+                self.goal,
+                expansions,
+                tuple(path),
+                stats=stats,
+                message="internal error: the tree did not reach the goal when executed from s0",
+            )
+        return PlanResult(
+            Status.SOLVED, self.config.name, self.goal, expansions, tuple(path), run.actions, run.cost, stats
+        )
 
 
 def _clashes(
