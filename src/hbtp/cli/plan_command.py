@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import cast
 
 import click
 
@@ -16,6 +17,7 @@ from hbtp.errors import DatasetError, InputError
 from hbtp.llm.parse import parse_reply
 from hbtp.logic.task import Goal
 from hbtp.planning import PLANNERS, Hints, Limits, hints_from_names, plan
+from hbtp.planning.heuristics import HEURISTICS, HeuristicName
 from hbtp.planning.oracle import oracle_hints
 
 
@@ -71,7 +73,11 @@ def _goal_ids(loaded: Scenario, record: Record) -> frozenset[int] | None:
 )
 @click.option("--space", type=click.Choice(["full", "pruned"]), help="Action space (default: pruned with hints).")
 @click.option(
-    "--heuristic", type=click.Choice(["none", "hmax"]), default="none", show_default=True, help="LLM-free heuristic."
+    "--heuristic",
+    type=click.Choice(list(HEURISTICS)),
+    default="none",
+    show_default=True,
+    help="LLM-free admissible heuristic: hmax, or lm (landmarks, max with hmax).",
 )
 @click.option("--alpha", type=float, default=10_000, show_default=True, help="HBTP-O discount divisor.")
 @click.option("-t", "--time-limit", type=float, default=60.0, show_default=True, help="Seconds.")
@@ -115,7 +121,7 @@ def plan_command(
         hints=hints,
         space="pruned" if chosen_space == "pruned" else "full",
         mutexes=loaded.mutexes,
-        heuristic="hmax" if heuristic == "hmax" else "none",
+        heuristic=cast(HeuristicName, heuristic),
         alpha=int(alpha) if float(alpha).is_integer() else alpha,
         limits=limits,
     )

@@ -1,24 +1,49 @@
-"""LLM-free heuristics computed from the initial state.
+"""LLM-free heuristics, computed from the initial state once per action space.
 
-``h_max`` (Bonet & Geffner): the cost of the most expensive literal of a condition in the delete
-relaxation, computed forward from s0 once per action space. For the backward search it is
-admissible and consistent: ``h(c) <= D(a) + h(regress(c, a))`` because every literal that ``a``
-adds costs at most ``D(a)`` plus the most expensive precondition, and the preconditions are part of
-the regressed condition. So OBTEA ordered by ``g + h_max`` is A* and stays optimal. Literals that
-are unreachable even in the relaxation get ``inf``: a condition holding one is a dead end.
+Both are admissible and consistent for the backward search, so OBTEA ordered by ``g + h`` is A* and
+stays optimal. A condition holding a literal that is unreachable even in the delete relaxation gets
+``inf``: it is a dead end.
+
+``hmax`` (Bonet & Geffner): the cost of the most expensive literal of a condition in the delete
+relaxation. Consistent because every literal an action adds costs at most its cost plus its most
+expensive precondition, and the preconditions are part of the regressed condition.
+
+``lm`` (fact landmarks with a static cost partition): ``LM(l)`` is the set of atoms every relaxed
+plan for ``l`` makes true (the usual fixpoint ``LM(l) = {l} ∪ ⋂_{a adds l} ⋃_{p ∈ pre(a)} LM(p)``).
+Every plan reaching condition ``c`` must add each atom of ``L(c) = ⋃_{l ∈ c} LM(l) - s0``; each
+action's cost is split evenly among its relevant add effects (atoms some precondition or the goal
+needs), and ``cost(f)`` is the cheapest share of an achiever of ``f``. Then
+``h(c) = ceil(Σ_{f ∈ L(c)} cost(f))`` is admissible (a plan pays each action at most once across its
+shares; plan costs are whole numbers) and consistent, since ``L(c) ⊆ L(regress(c, a)) ∪ add(a)`` and
+the shares of ``a`` add up to at most its cost. The combined heuristic is ``max(hmax, lm)``.
 """
 
 from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Collection, Iterable, Mapping, Sequence
+from typing import Literal, Protocol
 
 from hbtp.logic.task import GroundAction, GroundTask
 
+HeuristicName = Literal["none", "hmax", "lm"]
+HEURISTICS: tuple[str, ...] = ("none", "hmax", "lm")
 
-def hmax_table(task: GroundTask, actions: Sequence[GroundAction]) -> list[float]:
-    """For each atom id, the h_max cost of reaching it from s0 with ``actions`` (``inf`` if never)."""
+
+class Heuristic(Protocol):
+    """An estimate of the cost of reaching a condition from s0 (``inf``: never)."""
+
+    def __call__(self, condition: Iterable[int]) -> float: ...
+
+
+def hmax_table(
+    task: GroundTask, actions: Sequence[GroundAction], costs: Mapping[int, float] | None = None
+) -> list[float]:
+    """For each atom id, its h_max cost from s0 with ``actions`` (``inf`` if never reachable).
+
+    ``costs`` overrides action costs by action index (the discounted costs of HBTP).
+    """
     cost = [math.inf] * len(task.atoms)
     waiting = [len(a.pre) for a in actions]
     users: dict[int, list[int]] = {}
@@ -29,10 +54,18 @@ def hmax_table(task: GroundTask, actions: Sequence[GroundAction]) -> list[float]
     for atom in sorted(task.initial_state):
         cost[atom] = 0.0
         heapq.heappush(heap, (0.0, atom))
-    ready: list[int] = [p for p, action in enumerate(actions) if not action.pre]
+
+    def relax(action: GroundAction, pre_cost: float) -> None:
+        value = pre_cost + (costs[action.index] if costs is not None else action.cost)
+        for atom in action.add:
+            if value < cost[atom]:
+                cost[atom] = value
+                heapq.heappush(heap, (value, atom))
+
+    for action in actions:
+        if not action.pre:
+            relax(action, 0.0)
     done = [False] * len(task.atoms)
-    for position in ready:
-        _relax(actions[position], 0.0, cost, heap)
     while heap:
         value, atom = heapq.heappop(heap)
         if done[atom] or value > cost[atom]:
@@ -42,16 +75,191 @@ def hmax_table(task: GroundTask, actions: Sequence[GroundAction]) -> list[float]
             waiting[position] -= 1
             if waiting[position] == 0:
                 action = actions[position]
-                _relax(action, max(cost[p] for p in action.pre), cost, heap)
+                relax(action, max(cost[p] for p in action.pre))
     return cost
 
 
-def _relax(action: GroundAction, pre_cost: float, cost: list[float], heap: list[tuple[float, int]]) -> None:
-    value = pre_cost + action.cost
-    for atom in action.add:
-        if value < cost[atom]:
-            cost[atom] = value
-            heapq.heappush(heap, (value, atom))
+def landmark_table(
+    task: GroundTask, actions: Sequence[GroundAction], reachable: Sequence[float]
+) -> list[frozenset[int] | None]:
+    """For each atom id, its fact landmarks from s0 (``None`` when unreachable)."""
+    table: list[frozenset[int] | None] = [None] * len(task.atoms)
+    for atom in task.initial_state:
+        table[atom] = frozenset((atom,))
+    usable = [a for a in actions if all(not math.isinf(reachable[p]) for p in a.pre)]
+    usable.sort(key=lambda a: (max((reachable[p] for p in a.pre), default=0.0), a.index))
+    changed = True
+    while changed:
+        changed = False
+        for action in usable:
+            parts = [table[p] for p in action.pre]
+            if any(part is None for part in parts):
+                continue
+            needed: frozenset[int] = frozenset().union(*parts) if parts else frozenset()  # type: ignore[arg-type]
+            for atom in action.add:
+                new = needed | {atom}
+                old = table[atom]
+                if old is None:
+                    table[atom] = new
+                    changed = True
+                elif not old <= new:
+                    table[atom] = old & new
+                    changed = True
+    return table
+
+
+def landmark_costs(
+    task: GroundTask,
+    actions: Sequence[GroundAction],
+    relevant: Collection[int],
+    costs: Mapping[int, float] | None = None,
+) -> list[float]:
+    """``cost(f)``: the cheapest share of an achiever of ``f`` (an action's cost split evenly among its
+    add effects that are ``relevant``: needed by some precondition or by the goal)."""
+    share = [math.inf] * len(task.atoms)
+    for action in actions:
+        adds = [q for q in action.add if q in relevant]
+        if not adds:
+            continue
+        value = (costs[action.index] if costs is not None else action.cost) / len(adds)
+        for atom in adds:
+            if value < share[atom]:
+                share[atom] = value
+    return share
+
+
+class SpaceAnalysis:
+    """What the heuristics need from an action space, independent of the goal (cached)."""
+
+    def __init__(self, task: GroundTask, actions: Sequence[GroundAction]) -> None:
+        self.actions = actions
+        self.hmax = hmax_table(task, actions)
+        self.landmarks = landmark_table(task, actions, self.hmax)
+        self.pre_atoms: frozenset[int] = frozenset().union(*(a.pre for a in actions)) if actions else frozenset()
+        self.shares = landmark_costs(task, actions, self.pre_atoms)
+        s0 = task.initial_state
+        # For each action, the landmarks of its precondition that s0 lacks (None: a dead end).
+        self.pre_landmarks: dict[int, frozenset[int] | None] = {}
+        for action in actions:
+            parts = [self.landmarks[p] for p in action.pre]
+            if any(part is None for part in parts):
+                self.pre_landmarks[action.index] = None
+            else:
+                self.pre_landmarks[action.index] = frozenset().union(*parts) - s0  # type: ignore[arg-type]
+
+
+_ANALYSES: dict[tuple[int, object], tuple[GroundTask, SpaceAnalysis]] = {}
+
+
+def analyse_space(task: GroundTask, actions: Sequence[GroundAction]) -> SpaceAnalysis:
+    """The (cached) analysis of ``actions`` in ``task``; the full space and small spaces are cached."""
+    key: tuple[int, object] = (
+        id(task),
+        "full" if len(actions) == len(task.actions) else tuple(a.index for a in actions),
+    )
+    cached = _ANALYSES.get(key)
+    if cached is not None and cached[0] is task:
+        return cached[1]
+    analysis = SpaceAnalysis(task, actions)
+    if len(_ANALYSES) >= 64:
+        _ANALYSES.pop(next(iter(_ANALYSES)))
+    _ANALYSES[key] = (task, analysis)
+    return analysis
+
+
+class HMax:
+    def __init__(self, table: Sequence[float]) -> None:
+        self.table = table
+
+    def __call__(self, condition: Iterable[int]) -> float:
+        table = self.table
+        return max((table[a] for a in condition), default=0.0)
+
+
+class LandmarkSum:
+    """``max(hmax, ceil(Σ cost(f) for f in L(c)))`` (see the module docstring); ``hmax`` may be omitted."""
+
+    def __init__(
+        self,
+        landmarks: Sequence[frozenset[int] | None],
+        share: Sequence[float],
+        initial_state: frozenset[int],
+        hmax: Sequence[float] | None = None,
+    ) -> None:
+        self.landmarks = landmarks
+        self.share = share
+        self.initial_state = initial_state
+        self.hmax = hmax
+
+    def __call__(self, condition: Iterable[int]) -> float:
+        landmarks = self.landmarks
+        parts = []
+        for atom in condition:
+            part = landmarks[atom]
+            if part is None:
+                return math.inf
+            parts.append(part)
+        if not parts:
+            return 0.0
+        share = self.share
+        total = math.ceil(sum(share[f] for f in frozenset().union(*parts) - self.initial_state) - 1e-9)
+        if self.hmax is not None:
+            hmax = self.hmax
+            return max(float(total), max(hmax[a] for a in condition))
+        return float(total)
+
+    def of_landmarks(self, landmarks: frozenset[int] | None) -> float:
+        """The landmark part for a precomputed landmark set (already without s0)."""
+        if landmarks is None:
+            return math.inf
+        share = self.share
+        return float(math.ceil(sum(share[f] for f in landmarks) - 1e-9))
+
+
+def build_heuristic(
+    name: str,
+    task: GroundTask,
+    actions: Sequence[GroundAction],
+    goal: Collection[int],
+    *,
+    scale: float = 1.0,
+    discounts: Mapping[int, float] | None = None,
+) -> Heuristic | None:
+    """The heuristic ``name`` (``none``, ``hmax``, ``lm``) for this action space.
+
+    Action costs are multiplied by ``scale``, and the actions in ``discounts`` (by index) cost what
+    it says instead: the step costs of HBTP. With changed costs, ``lm`` uses the landmark sum alone
+    (still admissible and consistent for those costs) and ``hmax`` is recomputed.
+    """
+    if name == "none":
+        return None
+    analysis = analyse_space(task, actions)
+    discounts = discounts or {}
+    plain = scale == 1.0 and not discounts
+    if name == "hmax":
+        if plain:
+            return HMax(analysis.hmax)
+        costs = {a.index: discounts.get(a.index, a.cost * scale) for a in actions}
+        return HMax(hmax_table(task, actions, costs))
+    if name != "lm":
+        raise ValueError(f"unknown heuristic {name!r}")
+    # Shares: cached for the space (relevant = atoms some precondition needs), scaled, then patched
+    # for goal atoms no precondition needs and for discounted actions (their values only go down).
+    share = list(analysis.shares) if scale == 1.0 else [x * scale for x in analysis.shares]
+    relevant = analysis.pre_atoms | frozenset(goal)
+    in_space = None if len(actions) == len(task.actions) else {a.index for a in actions}
+    affected = set(discounts)
+    for atom in frozenset(goal) - analysis.pre_atoms:
+        affected.update(i for i in task.achievers[atom] if in_space is None or i in in_space)
+    for index in sorted(affected):
+        action = task.actions[index]
+        adds = [q for q in action.add if q in relevant]
+        if adds:
+            value = discounts.get(index, action.cost * scale) / len(adds)
+            for atom in adds:
+                if value < share[atom]:
+                    share[atom] = value
+    return LandmarkSum(analysis.landmarks, share, task.initial_state, analysis.hmax if plain else None)
 
 
 def hmax(table: Sequence[float], condition: Iterable[int]) -> float:

@@ -14,7 +14,7 @@ def optimal_plan(
     task: GroundTask, goal: Goal, mutexes: Mutexes | None = None, limits: Limits | None = None
 ) -> list[int]:
     """The actions of a cost-optimal plan (OBTEA with h_max over the full action space)."""
-    result = plan(task, goal, "obtea", space="full", mutexes=mutexes, heuristic="hmax", limits=limits)
+    result = plan(task, goal, "obtea", space="full", mutexes=mutexes, heuristic="lm", limits=limits)
     if not result.solved:
         raise PlanningError(f"no optimal plan for the oracle: {result.status.value} ({result.message})")
     return list(result.solution)

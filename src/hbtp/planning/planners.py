@@ -8,10 +8,11 @@ from typing import Literal
 from hbtp.domains.mutex import Mutexes
 from hbtp.errors import InputError
 from hbtp.logic.task import Goal, GroundTask
+from hbtp.planning.heuristics import HEURISTICS, HeuristicName
 from hbtp.planning.hints import Hints, ResolvedHints, pruned_action_space, resolve_hints
 from hbtp.planning.limits import Limits
 from hbtp.planning.result import PlanResult
-from hbtp.planning.search import HeuristicName, Number, SearchConfig, search
+from hbtp.planning.search import Number, SearchConfig, search
 
 PLANNERS: dict[str, SearchConfig] = {
     "bte": SearchConfig("bte", "unit"),
@@ -34,8 +35,8 @@ def planner_config(name: str, *, heuristic: HeuristicName = "none", alpha: Numbe
         base = PLANNERS[name]
     except KeyError:
         raise InputError(f"unknown planner {name!r}; choose one of: {', '.join(PLANNERS)}") from None
-    if heuristic not in ("none", "hmax"):
-        raise InputError(f"unknown heuristic {heuristic!r}; choose none or hmax")
+    if heuristic not in HEURISTICS:
+        raise InputError(f"unknown heuristic {heuristic!r}; choose one of: {', '.join(HEURISTICS)}")
     if not alpha > 0:
         raise InputError(f"alpha must be positive, not {alpha}")
     return dataclasses.replace(base, heuristic=heuristic, alpha=alpha)

@@ -38,7 +38,7 @@ from typing import Literal
 from hbtp.domains.mutex import Mutexes
 from hbtp.logic.task import Goal, GroundAction, GroundTask
 from hbtp.planning.execution import execute_expansions
-from hbtp.planning.heuristics import hmax_table
+from hbtp.planning.heuristics import Heuristic, HeuristicName, LandmarkSum, analyse_space, build_heuristic
 from hbtp.planning.hints import ResolvedHints
 from hbtp.planning.limits import Limits, LimitWatch
 from hbtp.planning.result import Expansion, PlanResult, SearchStats, Status
@@ -46,7 +46,6 @@ from hbtp.planning.result import Expansion, PlanResult, SearchStats, Status
 log = logging.getLogger(__name__)
 
 StepCost = Literal["unit", "cost", "optimal-heuristic", "satisficing-heuristic"]
-HeuristicName = Literal["none", "hmax"]
 Number = int | float | Fraction
 
 
@@ -106,14 +105,12 @@ def search(
         if clash is not None:
             names = " and ".join(task.names(clash))
             return finish(Status.UNSOLVABLE, f"the goal asks for {names}, which cannot hold together")
-    table: list[float] | None = None
-    if config.heuristic == "hmax":
-        table = hmax_table(task, actions)
-        dead = [a for a in sorted(goal.ids) if math.isinf(table[a])]
-        if dead:
-            names = ", ".join(task.names(dead))
-            return finish(Status.UNSOLVABLE, f"{names} cannot be reached from s0 with this action space")
-    return _Search(task, goal, actions, config, mutexes, hints, limits, table, started).run()
+    run = _Search(task, goal, actions, config, mutexes, hints, limits, started)
+    if run.heuristic is not None and math.isinf(run.heuristic(goal.ids)):
+        dead = [a for a in sorted(goal.ids) if math.isinf(run.heuristic((a,)))]
+        names = ", ".join(task.names(dead)) or str(goal)
+        return finish(Status.UNSOLVABLE, f"{names} cannot be reached from s0 with this action space")
+    return run.run()
 
 
 class _Search:
@@ -128,61 +125,58 @@ class _Search:
         mutexes: Mutexes | None,
         hints: ResolvedHints | None,
         limits: Limits,
-        table: list[float] | None,
         started: float,
     ) -> None:
         self.task = task
         self.goal = goal
         self.config = config
-        self.table = table
         self.started = started
         self.watch = LimitWatch(limits, started)
         self.space = len(actions)
-        self.astar = table is not None and config.step_cost == "cost"
         self.partners = mutexes.partners if mutexes is not None else None
         self.nogoods = mutexes.nogoods_by_atom if mutexes is not None and mutexes.nogoods else None
         self.s0 = task.initial_state
 
-        # Step costs: the full cost of every action, and the reduced cost while p̂ owes it.
+        # Step costs: the full cost of an action, and the reduced cost while p̂ owes it on a path.
         self.path_index: dict[int, int] = {}
         initial_owed: list[int] = []
         if hints is not None and config.step_cost in ("optimal-heuristic", "satisficing-heuristic"):
+            in_space = {a.index for a in actions}
             for action_id, count in sorted(hints.owed.items()):
-                self.path_index[action_id] = len(initial_owed)
-                initial_owed.append(count)
+                if action_id in in_space:
+                    self.path_index[action_id] = len(initial_owed)
+                    initial_owed.append(count)
         self.initial_owed = tuple(initial_owed)
-        alpha = config.alpha
-        scaled = config.step_cost == "optimal-heuristic" and isinstance(alpha, int)
-        self.full_cost: dict[int, Number] = {}
-        self.owed_cost: dict[int, Number] = {}
-        for action in actions:
-            if config.step_cost == "unit":
-                self.full_cost[action.index] = 1
-            elif config.step_cost == "optimal-heuristic":
-                self.full_cost[action.index] = action.cost * alpha if scaled else action.cost
-                self.owed_cost[action.index] = action.cost if scaled else Fraction(action.cost) / Fraction(alpha)
-            elif config.step_cost == "satisficing-heuristic":
-                self.full_cost[action.index] = action.cost
-                self.owed_cost[action.index] = 0
-            else:
-                self.full_cost[action.index] = action.cost
+        self.mode = config.step_cost
+        self.alpha = config.alpha
+        self.scale: Number = config.alpha if self.mode == "optimal-heuristic" and isinstance(config.alpha, int) else 1
 
-        # Achievers of each atom, sorted by a lower bound of how much a child's priority exceeds
-        # its parent's g: the step cost, plus h_max of the preconditions under A*. Actions with a
-        # precondition unreachable in the relaxation can never help and are left out.
+        # The heuristic estimates the same step costs (owed actions at their reduced cost). It
+        # orders the search (A*) except for BT Expansion, which stays breadth-first; for every
+        # planner it drops dead ends.
+        discounts = {i: float(self.owed_cost(task.actions[i])) for i in self.path_index}
+        self.heuristic: Heuristic | None = build_heuristic(
+            config.heuristic, task, actions, goal.ids, scale=float(self.scale), discounts=discounts
+        )
+        self.astar = self.heuristic is not None and config.step_cost != "unit"
+        self.pre_landmarks = analyse_space(task, actions).pre_landmarks if self.heuristic is not None else {}
+        # The achievers of an atom: the task's index for large spaces, a small index of our own
+        # for pruned ones (filtering the task's 3000-entry lists would cost more than building it).
+        self.achievers: Sequence[Sequence[int]] | dict[int, list[int]] = task.achievers
+        if len(actions) * 4 < len(task.actions):
+            own: dict[int, list[int]] = {}
+            for action in actions:
+                for atom in action.add:
+                    own.setdefault(atom, []).append(action.index)
+            self.achievers = own
+        self.in_space: frozenset[int] | None = (
+            None
+            if len(actions) == len(task.actions) or isinstance(self.achievers, dict)
+            else frozenset(a.index for a in actions)
+        )
+        # Achievers of each atom, built when first needed and sorted by a lower bound of how much a
+        # child's priority exceeds its parent's g (see adders_of).
         self.adders: dict[int, list[tuple[Number, int]]] = {}
-        for action in actions:
-            bound: Number = self.full_cost[action.index]
-            if table is not None:
-                pre_cost = max((table[p] for p in action.pre), default=0.0)
-                if math.isinf(pre_cost):
-                    continue
-                if self.astar:
-                    bound = bound + pre_cost
-            for atom in action.add:
-                self.adders.setdefault(atom, []).append((bound, action.index))
-        for entries in self.adders.values():
-            entries.sort()
 
         self.nodes: dict[frozenset[int], _Node] = {}
         self.open: list[tuple[Number, int, int, int, Number, frozenset[int], bool]] = []
@@ -190,14 +184,69 @@ class _Search:
         self.expanded_index: dict[int, list[tuple[frozenset[int], Number]]] = {}
         self.expansions: list[Expansion] = []
         self.position: dict[frozenset[int], int] = {}
-        self.generated = self.pruned_subset = self.pruned_mutex = 0
+        self.generated = self.pruned_subset = self.pruned_mutex = self.pruned_dead_end = 0
         self.stopped: Status | None = None
 
     # ----------------------------------------------------------------- helpers
+    def full_cost(self, action: GroundAction) -> Number:
+        """The step cost of an action that p̂ does not (or no longer) owe."""
+        if self.mode == "unit":
+            return 1
+        if self.mode == "optimal-heuristic":
+            return action.cost * self.scale
+        return action.cost
+
+    def owed_cost(self, action: GroundAction) -> Number:
+        """The step cost of an action that p̂ still owes: D/α (HBTP-O) or 0 (HBTP-S)."""
+        if self.mode == "satisficing-heuristic":
+            return 0
+        if isinstance(self.alpha, int):
+            return action.cost
+        return Fraction(action.cost) / Fraction(self.alpha)
+
+    def adders_of(self, atom: int) -> list[tuple[Number, int]]:
+        """The achievers of ``atom`` in the action space, sorted by their bound.
+
+        The bound is the step cost, plus under A* the heuristic of the preconditions (the child
+        holds them, so its priority is at least the parent's g plus the bound). Actions whose
+        preconditions are a dead end are left out.
+        """
+        entries = self.adders.get(atom)
+        if entries is not None:
+            return entries
+        entries = []
+        actions = self.task.actions
+        in_space = self.in_space
+        heuristic = self.heuristic
+        achievers = self.achievers
+        candidates = achievers.get(atom, ()) if isinstance(achievers, dict) else achievers[atom]
+        for index in candidates:
+            if in_space is not None and index not in in_space:
+                continue
+            action = actions[index]
+            bound: Number = self.full_cost(action)
+            if heuristic is not None:
+                pre_cost = self.pre_heuristic(action)
+                if math.isinf(pre_cost):
+                    continue
+                if self.astar:
+                    bound = bound + pre_cost
+            entries.append((bound, index))
+        entries.sort()
+        self.adders[atom] = entries
+        return entries
+
+    def pre_heuristic(self, action: GroundAction) -> float:
+        """A lower bound of the heuristic of any condition holding ``action``'s precondition."""
+        heuristic = self.heuristic
+        assert heuristic is not None
+        if isinstance(heuristic, LandmarkSum):
+            return heuristic.of_landmarks(self.pre_landmarks[action.index])
+        return heuristic(action.pre)
+
     def priority(self, condition: frozenset[int], g: Number) -> Number:
-        if self.astar and self.table is not None:
-            table = self.table
-            return g + max((table[a] for a in condition), default=0.0)
+        if self.astar and self.heuristic is not None:
+            return g + self.heuristic(condition)
         return g
 
     def push(self, condition: frozenset[int], node: _Node, priority: Number, resume: bool) -> None:
@@ -268,10 +317,10 @@ class _Search:
             for action_id, slot in self.path_index.items():
                 if owed[slot] > 0:
                     action = self.task.actions[action_id]
-                    if not action.add.isdisjoint(condition) and action_id in self.full_cost:
+                    if not action.add.isdisjoint(condition):
                         node.seen.add(action_id)
                         self.child(condition, node, action)
-        lists = [self.adders[a] for a in sorted(condition) if a in self.adders]
+        lists = [entries for entries in map(self.adders_of, sorted(condition)) if entries]
         if not lists:
             return
         node.pending = iter(lists[0]) if len(lists) == 1 else heapq.merge(*lists)
@@ -323,21 +372,24 @@ class _Search:
         slot = self.path_index.get(action.index)
         owed = node.owed
         if slot is not None and owed[slot] > 0:
-            step = self.owed_cost[action.index]
+            step = self.owed_cost(action)
             owed = (*owed[:slot], owed[slot] - 1, *owed[slot + 1 :])
         else:
-            step = self.full_cost[action.index]
+            step = self.full_cost(action)
         g = node.g + step
         known = self.nodes.get(result)
         if known is not None and (known.closed or known.g <= g):
             return
-        if self.dominated(result, g):
-            self.pruned_subset += 1
+        priority = self.priority(result, g)
+        if math.isinf(priority) or (
+            not self.astar and self.heuristic is not None and math.isinf(self.heuristic(result))
+        ):
+            self.pruned_dead_end += 1
             return
         new = _Node(g, node.cost + action.cost, owed, condition, action.index)
         self.nodes[result] = new
         self.generated += 1
-        self.push(result, new, self.priority(result, g), False)
+        self.push(result, new, priority, False)
 
     def result(self, final: frozenset[int] | None) -> PlanResult:
         task = self.task
@@ -346,6 +398,7 @@ class _Search:
             generated=self.generated,
             pruned_subset=self.pruned_subset,
             pruned_mutex=self.pruned_mutex,
+            pruned_dead_end=self.pruned_dead_end,
             time_s=time.perf_counter() - self.started,
             action_space=self.space,
         )
