@@ -14,6 +14,7 @@ import traceback
 import click
 
 from hbtp import __version__
+from hbtp.cli.bench_commands import bench
 from hbtp.cli.dataset_commands import dataset
 from hbtp.cli.domain_commands import export_pddl, ground, scenarios
 from hbtp.cli.plan_command import plan_command
@@ -37,6 +38,7 @@ cli.add_command(ground)
 cli.add_command(export_pddl)
 cli.add_command(dataset)
 cli.add_command(plan_command)
+cli.add_command(bench)
 
 
 def main(argv: list[str] | None = None) -> int:

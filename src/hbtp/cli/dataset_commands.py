@@ -19,6 +19,8 @@ from hbtp.datasets import (
 from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
 from hbtp.errors import InputError
+from hbtp.planning import Limits
+from hbtp.planning.oracle import optimal_cost_function
 
 
 def load_records(source: str) -> tuple[str, list[Record]]:
@@ -51,8 +53,12 @@ def list_datasets(as_json: bool) -> int:
 @dataset.command("validate")
 @click.argument("source")
 @click.option("-s", "--scenario", help="Scenario to check against (default: the shipped dataset's own).")
+@click.option(
+    "--check-optimal", is_flag=True, help="Also plan each goal optimally and warn about plans that cost more."
+)
+@click.option("-t", "--time-limit", type=float, default=30.0, show_default=True, help="Seconds per optimal plan.")
 @click.option("--json", "as_json", is_flag=True)
-def validate(source: str, scenario: str | None, as_json: bool) -> int:
+def validate(source: str, scenario: str | None, check_optimal: bool, time_limit: float, as_json: bool) -> int:
     """Check every record of SOURCE (a file or a shipped dataset name) against a scenario.
 
     Exit code 1 when some record is invalid (warnings alone do not fail).
@@ -61,7 +67,9 @@ def validate(source: str, scenario: str | None, as_json: bool) -> int:
     scenario_name = scenario or DATASET_SCENARIO.get(name)
     if scenario_name is None:
         raise InputError("give --scenario for a dataset file")
-    report = validate_records(records, load_scenario(scenario_name).task, dataset=name)
+    loaded = load_scenario(scenario_name)
+    optimal = optimal_cost_function(loaded, Limits(time_s=time_limit)) if check_optimal else None
+    report = validate_records(records, loaded.task, dataset=name, optimal_cost=optimal)
     if as_json:
         echo_json(report.to_dict())
     else:

@@ -75,9 +75,9 @@ def _goal_ids(loaded: Scenario, record: Record) -> frozenset[int] | None:
 @click.option(
     "--heuristic",
     type=click.Choice(list(HEURISTICS)),
-    default="none",
+    default="lm",
     show_default=True,
-    help="LLM-free admissible heuristic: hmax, or lm (landmarks, max with hmax).",
+    help="LLM-free admissible heuristic: lm (landmarks, max with hmax), hmax, or none (the paper's planners).",
 )
 @click.option("--alpha", type=float, default=10_000, show_default=True, help="HBTP-O discount divisor.")
 @click.option("-t", "--time-limit", type=float, default=60.0, show_default=True, help="Seconds.")

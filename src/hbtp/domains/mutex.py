@@ -91,6 +91,10 @@ class Mutexes:
     def pairs(self) -> int:
         return sum(len(p) for p in self.partners) // 2
 
+    def proved_only(self) -> Mutexes:
+        """The proved groups alone: pruning with them never cuts off a reachable condition."""
+        return Mutexes(tuple(g for g in self.groups if g.proved), (), self.atom_count)
+
 
 # ====================================================================== infer
 def infer_mutexes(

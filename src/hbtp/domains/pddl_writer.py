@@ -126,15 +126,49 @@ def write_problem(problem: Problem) -> str:
 
 
 # ---------------------------------------------------------------- grounded
-def _ground_atom(atom: Atom) -> str:
-    return f"({' '.join((atom.predicate, *atom.args))})"
+#: Words that PDDL parsers read as syntax where a predicate may stand (compared case-insensitively,
+#: as Fast Downward and unified-planning lowercase every name).
+PDDL_KEYWORDS = frozenset(
+    {
+        "and", "or", "not", "imply", "exists", "forall", "when", "either", "preference",
+        "increase", "decrease", "assign", "scale-up", "scale-down",
+    }
+)  # fmt: skip
 
 
-def write_grounded(task: GroundTask, goal: Goal, domain_name: str | None = None) -> tuple[str, str]:
+def keyword_safe_predicates(predicates: Iterable[str]) -> dict[str, str]:
+    """New names for the predicates named like a PDDL keyword: ``Exists`` becomes ``Exists_``.
+
+    Underscores are appended until the name is neither a keyword nor another predicate's name.
+    """
+    names = set(predicates)
+    taken = {p.lower() for p in names}
+    renamed: dict[str, str] = {}
+    for predicate in sorted(names):
+        if predicate.lower() not in PDDL_KEYWORDS:
+            continue
+        new = f"{predicate}_"
+        while new.lower() in taken or new.lower() in PDDL_KEYWORDS:
+            new += "_"
+        taken.add(new.lower())
+        renamed[predicate] = new
+    return renamed
+
+
+def _ground_atom(atom: Atom, rename: dict[str, str] | None = None) -> str:
+    predicate = rename.get(atom.predicate, atom.predicate) if rename else atom.predicate
+    return f"({' '.join((predicate, *atom.args))})"
+
+
+def write_grounded(
+    task: GroundTask, goal: Goal, domain_name: str | None = None, *, rename_keywords: bool = False
+) -> tuple[str, str]:
     """A grounded task as a STRIPS + ``:action-costs`` domain and problem (one action per ground action).
 
     The encoding is exactly the task the planners search (static facts already compiled away), so
-    an independent planner's optimal cost on it is directly comparable.
+    an independent planner's optimal cost on it is directly comparable. A predicate named like a
+    PDDL keyword (RoboWaiter's ``Exists``) makes Fast Downward and unified-planning fail; with
+    ``rename_keywords`` such predicates are written as ``Exists_`` (see :func:`keyword_safe_predicates`).
     """
     name = domain_name or _pddl_name(task.name)
     symbols = [*task.constants, *task.objects]
@@ -143,19 +177,23 @@ def write_grounded(task: GroundTask, goal: Goal, domain_name: str | None = None)
         used.setdefault(atom.predicate, len(atom.args))
     for atom in goal.atoms:
         used.setdefault(atom.predicate, len(atom.args))
+    rename = keyword_safe_predicates(used) if rename_keywords else {}
     domain = [
         f"(define (domain {name})\n",
         "  (:requirements :strips :action-costs)\n",
         f"  (:constants {' '.join(symbols)})\n" if symbols else "",
         "  (:predicates\n",
-        *(f"    ({' '.join((p, *(f'?a{i}' for i in range(arity))))})\n" for p, arity in sorted(used.items())),
+        *(
+            f"    ({' '.join((rename.get(p, p), *(f'?a{i}' for i in range(arity))))})\n"
+            for p, arity in sorted(used.items())
+        ),
         "  )\n",
         "  (:functions (total-cost) - number)\n",
     ]
     for action in task.actions:
-        pre = " ".join(_ground_atom(task.atoms[i]) for i in sorted(action.pre))
-        eff = [_ground_atom(task.atoms[i]) for i in sorted(action.add)]
-        eff += [f"(not {_ground_atom(task.atoms[i])})" for i in sorted(action.delete)]
+        pre = " ".join(_ground_atom(task.atoms[i], rename) for i in sorted(action.pre))
+        eff = [_ground_atom(task.atoms[i], rename) for i in sorted(action.add)]
+        eff += [f"(not {_ground_atom(task.atoms[i], rename)})" for i in sorted(action.delete)]
         eff.append(f"(increase (total-cost) {action.cost})")
         domain.append(
             f"  (:action {action.signature.underscored}\n"
@@ -164,8 +202,8 @@ def write_grounded(task: GroundTask, goal: Goal, domain_name: str | None = None)
             f"    :effect (and {' '.join(eff)}))\n"
         )
     domain.append(")\n")
-    init = " ".join(_ground_atom(task.atoms[i]) for i in sorted(task.initial_state))
-    goals = " ".join(_ground_atom(a) for a in goal.atoms)
+    init = " ".join(_ground_atom(task.atoms[i], rename) for i in sorted(task.initial_state))
+    goals = " ".join(_ground_atom(a, rename) for a in goal.atoms)
     problem = (
         f"(define (problem {name}-task)\n"
         f"  (:domain {name})\n"

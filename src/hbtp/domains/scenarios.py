@@ -6,8 +6,13 @@ PDDL files inside the package, described by ``data/scenarios.toml``.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
+import hashlib
 import logging
+import os
+import pickle
+import sys
 import time
 import tomllib
 from collections.abc import Iterable, Mapping, Sequence
@@ -16,6 +21,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from hbtp import __version__
 from hbtp.domains.grounding import ground
 from hbtp.domains.mutex import Mutexes, infer_mutexes
 from hbtp.domains.pddl_reader import read_domain_file, read_problem_file
@@ -69,7 +75,8 @@ def scenario_names() -> tuple[str, ...]:
 
 
 def load_scenario(name: str) -> Scenario:
-    """Load (parse, ground, infer mutexes) a shipped scenario; cached per process."""
+    """Load (parse, ground, infer mutexes) a shipped scenario; cached per process and on disk
+    (see :func:`cache_dir`; the cache is keyed by the data files' content and the hbtp version)."""
     if name not in _manifest():
         raise InputError(f"unknown scenario {name!r}; choose one of: {', '.join(scenario_names())}")
     return _load_shipped(name)
@@ -79,8 +86,12 @@ def load_scenario(name: str) -> Scenario:
 def _load_shipped(name: str) -> Scenario:
     entry = _manifest()[name]
     with resources.as_file(DATA) as folder:
+        cache = _cache_file(name, folder, entry)
+        cached = _read_cache(cache)
+        if cached is not None:
+            return cached
         mutex = entry.get("mutex", {})
-        return load_pddl_scenario(
+        scenario = load_pddl_scenario(
             folder / entry["domain"],
             folder / entry["problem"],
             name=name,
@@ -93,6 +104,65 @@ def _load_shipped(name: str) -> Scenario:
             fewshot=entry.get("fewshot"),
             test_set=entry.get("test"),
         )
+        _write_cache(cache, scenario)
+        return scenario
+
+
+# ----------------------------------------------------------------- disk cache
+def cache_dir() -> Path | None:
+    """Where loaded scenarios are cached: ``$HBTP_CACHE_DIR``, else ``$XDG_CACHE_HOME/hbtp`` or
+    ``~/.cache/hbtp``; ``None`` when ``HBTP_NO_CACHE`` is set."""
+    if os.environ.get("HBTP_NO_CACHE"):
+        return None
+    explicit = os.environ.get("HBTP_CACHE_DIR")
+    if explicit:
+        return Path(explicit)
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "hbtp"
+
+
+def _cache_file(name: str, folder: Path, entry: dict[str, Any]) -> Path | None:
+    """A cache file named by the hash of everything the scenario is built from."""
+    directory = cache_dir()
+    if directory is None:
+        return None
+    digest = hashlib.sha256(f"{__version__}|{sys.version_info[:2]}|{name}|{sorted(entry.items())!r}".encode())
+    for file_name in (entry["domain"], entry["problem"], "scenarios.toml"):
+        digest.update((folder / file_name).read_bytes())
+    # The code that builds a scenario is part of the key too, so a changed grounder never reads a
+    # stale cache.
+    package = Path(__file__).resolve().parents[1]
+    for source in sorted([*package.glob("domains/*.py"), *package.glob("logic/*.py")]):
+        digest.update(source.read_bytes())
+    return directory / f"{name}-{digest.hexdigest()[:16]}.pickle"
+
+
+def _read_cache(path: Path | None) -> Scenario | None:
+    if path is None or not path.exists():
+        return None
+    started = time.perf_counter()
+    try:
+        with path.open("rb") as handle:
+            scenario = pickle.load(handle)
+    except Exception as error:  # a stale or broken cache file is rebuilt, never fatal
+        log.warning("ignoring unreadable scenario cache %s: %s", path, error)
+        return None
+    if not isinstance(scenario, Scenario):
+        return None
+    return dataclasses.replace(scenario, load_seconds=time.perf_counter() - started)
+
+
+def _write_cache(path: Path | None, scenario: Scenario) -> None:
+    if path is None:
+        return
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        temporary = path.with_suffix(f".{os.getpid()}.tmp")
+        with temporary.open("wb") as handle:
+            pickle.dump(scenario, handle, protocol=pickle.HIGHEST_PROTOCOL)
+        os.replace(temporary, path)
+    except OSError as error:
+        log.info("could not write the scenario cache %s: %s", path, error)
 
 
 def load_pddl_scenario(

@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
+from hbtp.datasets.records import Record
 from hbtp.domains.mutex import Mutexes
-from hbtp.errors import PlanningError
+from hbtp.domains.scenarios import Scenario
+from hbtp.errors import InputError, PlanningError
 from hbtp.logic.task import Goal, GroundTask
 from hbtp.planning.hints import Hints
 from hbtp.planning.limits import Limits
@@ -26,3 +30,20 @@ def oracle_hints(task: GroundTask, goal: Goal, mutexes: Mutexes | None = None, l
     predicates = tuple(dict.fromkeys(a.predicate for a in actions))
     objects = tuple(dict.fromkeys(o for a in actions for o in a.objects))
     return Hints(tuple(a.name for a in actions), predicates, objects)
+
+
+def optimal_cost_function(scenario: Scenario, limits: Limits | None = None) -> Callable[[Record], int | None]:
+    """Record -> the optimal cost of its goal (``None`` when unknown): OBTEA with the landmark
+    heuristic over the full action space, pruning only with *proved* mutexes."""
+    mutexes = scenario.mutexes.proved_only()
+
+    def optimal_cost(record: Record) -> int | None:
+        try:
+            result = plan(
+                scenario.task, record.goal, "obtea", space="full", mutexes=mutexes, heuristic="lm", limits=limits
+            )
+        except InputError:
+            return None
+        return result.cost if result.solved else None
+
+    return optimal_cost

@@ -1,0 +1,154 @@
+"""Table I of the paper: the four planners on the Table I tasks, pruned or full action space."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+from tqdm import tqdm
+
+from hbtp.bench.results import ResultsFile, mean, median, write_json
+from hbtp.datasets import load_dataset
+from hbtp.datasets.records import Record
+from hbtp.domains import load_scenario
+from hbtp.planning import Limits, hints_from_names, plan
+from hbtp.planning.heuristics import HeuristicName
+from hbtp.planning.result import Status
+
+log = logging.getLogger(__name__)
+
+DATASET = "table1_robothow_100"
+SCENARIO = "robothow"
+KEY = ("task", "planner", "space", "hints", "heuristic")
+
+#: The paper's Table I and the reference implementation's figures (reference_results.md).
+PAPER = {
+    "pruned": {
+        "bte": {"explored": 41.0, "cost": 59.86},
+        "obtea": {"explored": 34.5, "cost": 58.64},
+        "hbtp-o": {"explored": 25.43, "cost": 58.64},
+        "hbtp-s": {"explored": 18.17, "cost": 58.83},
+    },
+    "full": {
+        "bte": {"explored": 117.8, "timeout_rate": 0.79},
+        "obtea": {"explored": 405.3, "timeout_rate": 0.82},
+        "hbtp-o": {"explored": 27.71, "timeout_rate": 0.09},
+        "hbtp-s": {"explored": 23.87, "timeout_rate": 0.04},
+    },
+}
+REFERENCE = {
+    "pruned": {
+        "bte": {"explored": "40.7-45.6", "cost": 59.86, "mean_time_s": 0.129, "median_time_s": 0.020},
+        "obtea": {"explored": 34.50, "cost": 58.64, "mean_time_s": 0.036, "median_time_s": 0.012},
+        "hbtp-o": {"explored": 25.43, "cost": 58.64, "mean_time_s": 0.027, "median_time_s": 0.013},
+        "hbtp-s": {"explored": 18.17, "cost": 58.94, "mean_time_s": 0.017, "median_time_s": 0.012},
+    },
+    "full": {
+        "bte": {"timeout_rate": 0.83},
+        "obtea": {"timeout_rate": 0.83},
+        "hbtp-o": {"timeout_rate": 0.44},
+        "hbtp-s": {"timeout_rate": 0.31},
+    },
+}
+
+
+@dataclass(frozen=True)
+class Table1Config:
+    space: Literal["full", "pruned"] = "pruned"
+    planners: tuple[str, ...] = ("bte", "obtea", "hbtp-o", "hbtp-s")
+    hints: Literal["oracle", "none"] = "oracle"
+    heuristic: HeuristicName = "none"
+    time_limit: float = 5.0
+    limit: int | None = None  # only the first N tasks
+
+
+def run_table1(config: Table1Config, out: Path, *, progress: bool = True) -> dict[str, Any]:
+    """Run (or resume) Table I into ``out``; returns the summary (also written to summary.json)."""
+    scenario = load_scenario(SCENARIO)
+    records = load_dataset(DATASET)[: config.limit]
+    results = ResultsFile(out / "results.jsonl", KEY)
+    todo = [(record, planner) for record in records for planner in config.planners]
+    keys = [_key(record, planner, config) for record, planner in todo]
+    pending = [(r, p) for (r, p), k in zip(todo, keys, strict=True) if k not in results]
+    bar = tqdm(total=len(todo), initial=len(todo) - len(pending), desc="table1", disable=not progress, unit="run")
+    for record, planner in pending:
+        results.append(_run_one(scenario, record, planner, config))
+        bar.update(1)
+    bar.close()
+    summary = summarise(list(results.ordered(keys)), config)
+    write_json(out / "summary.json", summary)
+    return summary
+
+
+def _key(record: Record, planner: str, config: Table1Config) -> tuple[Any, ...]:
+    return (record.id, planner, config.space, config.hints, config.heuristic)
+
+
+def _run_one(scenario: Any, record: Record, planner: str, config: Table1Config) -> dict[str, Any]:
+    hints = (
+        hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
+        if config.hints == "oracle"
+        else None
+    )
+    space: Literal["full", "pruned"] = config.space if hints is not None else "full"
+    result = plan(
+        scenario.task,
+        record.goal,
+        planner,
+        hints=hints,
+        space=space,
+        mutexes=scenario.mutexes,
+        heuristic=config.heuristic,
+        limits=Limits(time_s=config.time_limit),
+    )
+    return {
+        "task": record.id,
+        "goal": record.goal.strip(),
+        "planner": planner,
+        "space": config.space,
+        "hints": config.hints,
+        "heuristic": config.heuristic,
+        "status": result.status.value,
+        "solved": result.solved,
+        "cost": result.cost,
+        "explored": result.stats.explored,
+        "generated": result.stats.generated,
+        "time_s": round(result.stats.time_s, 6),
+        "action_space": result.stats.action_space,
+        "p_star": len(record.optimal_actions),
+    }
+
+
+def summarise(rows: Sequence[dict[str, Any]], config: Table1Config) -> dict[str, Any]:
+    planners: dict[str, Any] = {}
+    for planner in config.planners:
+        mine = [r for r in rows if r["planner"] == planner]
+        solved = [r for r in mine if r["solved"]]
+        planners[planner] = {
+            "tasks": len(mine),
+            "solved": len(solved),
+            "timeouts": sum(r["status"] == Status.TIMEOUT.value for r in mine),
+            "mean_explored": mean([r["explored"] for r in solved]),
+            "mean_cost": mean([r["cost"] for r in solved]),
+            "mean_time_s": mean([r["time_s"] for r in mine]),
+            "median_time_s": median([r["time_s"] for r in mine]),
+            "max_time_s": max((r["time_s"] for r in mine), default=None),
+            "mean_explored_per_path": mean([r["explored"] / (r["p_star"] + 1) for r in solved]),
+        }
+    return {
+        "dataset": DATASET,
+        "scenario": SCENARIO,
+        "config": {
+            "space": config.space,
+            "hints": config.hints,
+            "heuristic": config.heuristic,
+            "time_limit": config.time_limit,
+            "tasks": config.limit,
+        },
+        "planners": planners,
+        "paper": PAPER.get(config.space, {}),
+        "reference": REFERENCE.get(config.space, {}),
+    }

@@ -1,0 +1,148 @@
+"""Shared test helpers: seeded random STRIPS tasks, an independent brute-force optimum, and tree runners.
+
+Nothing here uses the planner: the brute force is a forward uniform-cost search over states
+(frozensets of atom ids) with the textbook progression ``(s - del) | add``, so it is an oracle that
+shares no code with the backward search under test.
+"""
+
+from __future__ import annotations
+
+import heapq
+import random
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from hbtp.bt import Node, NodeStatus, tick
+from hbtp.domains import DomainBuilder
+from hbtp.logic.task import Goal, GroundTask
+
+LOCATIONS = ("l0", "l1", "l2")
+
+
+@dataclass(frozen=True)
+class RandomCase:
+    """A generated task with its goal and the brute-force answer (``optimum`` is None: unsolvable)."""
+
+    seed: int
+    task: GroundTask
+    goal: Goal
+    optimum: int | None
+    plan: tuple[int, ...]  # one optimal plan (action indices), empty when unsolvable or goal in s0
+
+
+def random_task(seed: int) -> tuple[GroundTask, Goal]:
+    """A small random STRIPS task: 6-10 atoms, 5-12 actions, costs 1-9, a goal of 1-3 atoms.
+
+    Half of the tasks also get a robot location (``At(l0..l2)``, at most one true in s0, every action
+    that adds one location deletes the location it requires), so that ``infer_mutexes`` has a real
+    invariant to prove and the mutex pruning is exercised.
+    """
+    rng = random.Random(seed)
+    located = rng.random() < 0.5
+    n_facts = rng.randint(6, 10) - (len(LOCATIONS) if located else 0)
+    facts = [f"F(x{i})" for i in range(n_facts)]
+    builder = DomainBuilder(f"random-{seed}")
+    for j in range(rng.randint(5, 12)):
+        pre = rng.sample(facts, rng.randint(0, 3))
+        add = rng.sample(facts, rng.randint(1, 3))
+        others = [f for f in facts if f not in add]
+        delete = rng.sample(others, min(len(others), rng.randint(0, 3)))
+        if located and rng.random() < 0.7:
+            here, there = rng.sample(LOCATIONS, 2)
+            pre.append(f"At({here})")
+            if rng.random() < 0.6:
+                add.append(f"At({there})")
+                delete.append(f"At({here})")
+        builder.action(f"Op{j}(x0)", pre=pre, add=add, delete=delete, cost=rng.randint(1, 9))
+    initial = rng.sample(facts, min(len(facts), rng.randint(0, 4)))
+    if located:
+        initial.append(f"At({rng.choice(LOCATIONS)})")
+    builder.initial(initial)
+    task = builder.build()
+    goal_ids = rng.sample(range(len(task.atoms)), min(rng.randint(1, 3), len(task.atoms)))
+    goal = task.resolve_goal([task.atoms[i] for i in sorted(goal_ids)])
+    return task, goal
+
+
+def brute_force(task: GroundTask, goal: frozenset[int]) -> tuple[int | None, tuple[int, ...]]:
+    """Forward Dijkstra from s0: the optimal cost and one optimal plan, or (None, ()) when unsolvable."""
+    start = task.initial_state
+    best: dict[frozenset[int], int] = {start: 0}
+    previous: dict[frozenset[int], tuple[frozenset[int], int] | None] = {start: None}
+    heap: list[tuple[int, int, frozenset[int]]] = [(0, 0, start)]
+    counter = 0
+    while heap:
+        cost, _, state = heapq.heappop(heap)
+        if cost > best[state]:
+            continue
+        if goal <= state:
+            plan: list[int] = []
+            step = previous[state]
+            while step is not None:
+                state, action = step
+                plan.append(action)
+                step = previous[state]
+            return cost, tuple(reversed(plan))
+        for action in task.actions:
+            if action.pre <= state:
+                successor = (state - action.delete) | action.add
+                value = cost + action.cost
+                if value < best.get(successor, value + 1):
+                    best[successor] = value
+                    previous[successor] = (state, action.index)
+                    counter += 1
+                    heapq.heappush(heap, (value, counter, successor))
+    return None, ()
+
+
+def random_case(seed: int) -> RandomCase:
+    task, goal = random_task(seed)
+    optimum, plan = brute_force(task, goal.ids)
+    return RandomCase(seed, task, goal, optimum, plan)
+
+
+@dataclass(frozen=True)
+class TickRun:
+    reached: bool  # the tree returned SUCCESS
+    actions: tuple[int, ...]
+    cost: int
+    state: frozenset[int]
+
+
+def run_tree(tree: Node, task: GroundTask, state: frozenset[int], max_ticks: int) -> TickRun:
+    """Tick ``tree`` from ``state``, applying the RUNNING action each time, until SUCCESS or FAILURE."""
+    actions: list[int] = []
+    cost = 0
+    for _ in range(max_ticks):
+        status, running = tick(tree, state, task)
+        if status is NodeStatus.SUCCESS:
+            return TickRun(True, tuple(actions), cost, state)
+        if status is NodeStatus.FAILURE:
+            break
+        assert running is not None, "a RUNNING tick must name its action"
+        action = task.actions[running]
+        assert action.pre <= state, f"the tree runs {action.name} whose precondition does not hold"
+        state = action.progress(state)
+        actions.append(running)
+        cost += action.cost
+    return TickRun(False, tuple(actions), cost, state)
+
+
+def plan_cost(task: GroundTask, actions: Sequence[int]) -> int:
+    return sum(task.actions[i].cost for i in actions)
+
+
+def reaches(task: GroundTask, actions: Sequence[int], goal: frozenset[int]) -> bool:
+    """Whether the action sequence is applicable from s0 and ends in a goal state."""
+    state = task.initial_state
+    for index in actions:
+        action = task.actions[index]
+        if not action.pre <= state:
+            return False
+        state = action.progress(state)
+    return goal <= state
+
+
+def is_subsequence(short: Sequence[int], long: Sequence[int]) -> bool:
+    items = iter(long)
+    return all(any(x == y for y in items) for x in short)
