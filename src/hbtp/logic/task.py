@@ -75,9 +75,11 @@ class Goal:
         return " & ".join(a.underscored for a in self.atoms)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class GroundTask:
     """A grounded planning task over interned atoms.
+
+    Tasks compare and hash by identity (they are large; caches key on the task object).
 
     ``objects`` are the problem's objects (the paper's O); ``constants`` are the domain's own symbols
     (``self``, ``Nothing``…). ``predicates`` maps each fluent predicate to its arity and

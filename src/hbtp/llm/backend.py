@@ -1,0 +1,70 @@
+"""The one small interface every LLM backend implements.
+
+A :class:`Request` carries the conversation in two shapes: ``messages`` (system/user/assistant turns,
+for chat models and OpenAI-compatible servers) and ``completion_prompt`` (one plain text ending in
+``Optimal Actions:``, for base models such as the local Gemma-3 270M, which continue text rather than
+follow instructions). A backend uses whichever suits it and returns a :class:`Reply`.
+
+``goal`` and ``scenario`` travel along for backends that do not need a prompt at all (the oracles).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+
+@dataclass(frozen=True)
+class Message:
+    role: str  # "system", "user" or "assistant"
+    content: str
+
+
+@dataclass(frozen=True)
+class Request:
+    """One question to the model."""
+
+    messages: tuple[Message, ...]
+    completion_prompt: str
+    goal: str = ""
+    scenario: str = ""
+    round: int = 0  # 0: first answer; 1, 2, ...: reflective feedback rounds; grammar retries keep the round
+    attempt: int = 0  # grammar-check retries within a round
+    max_tokens: int = 256
+    temperature: float = 0.0
+    seed: int = 0
+    stop: tuple[str, ...] = ()
+
+    def key(self) -> str:
+        """A stable hash of what the model is asked (for record/replay)."""
+        payload = {
+            "messages": [[m.role, m.content] for m in self.messages],
+            "completion_prompt": self.completion_prompt,
+            "max_tokens": self.max_tokens,
+            "temperature": self.temperature,
+            "seed": self.seed,
+        }
+        return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
+
+
+@dataclass(frozen=True)
+class Reply:
+    """The model's answer and what it cost."""
+
+    text: str
+    seconds: float = 0.0
+    prompt_tokens: int | None = None
+    completion_tokens: int | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+
+class Backend(Protocol):
+    """An LLM: ``complete`` answers a request or raises :class:`hbtp.errors.BackendError`."""
+
+    name: str
+
+    def complete(self, request: Request) -> Reply: ...
+
+    def close(self) -> None: ...

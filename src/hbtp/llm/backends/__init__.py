@@ -1,0 +1,1 @@
+"""LLM backends: oracle, noisy oracle, replay/record, OpenAI-compatible servers, a local model."""

@@ -1,0 +1,79 @@
+"""Record real replies and replay them offline: a JSONL file of ``{"key": request hash, "reply": text}``.
+
+``ReplayBackend`` answers from the file (a missing key is a :class:`BackendError` that names it);
+``RecordingBackend`` wraps any backend and appends each new exchange to the file, so a run with a
+real model can be repeated exactly, offline and in tests.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+from hbtp.errors import BackendError
+from hbtp.llm.backend import Backend, Reply, Request
+
+
+def _read(path: Path) -> dict[str, str]:
+    table: dict[str, str] = {}
+    if not path.exists():
+        return table
+    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            entry = json.loads(line)
+            table[str(entry["key"])] = str(entry["reply"])
+        except (json.JSONDecodeError, KeyError, TypeError):
+            raise BackendError(f'{path}:{number}: not a replay line (expected {{"key": ..., "reply": ...}})') from None
+    return table
+
+
+class ReplayBackend:
+    name = "replay"
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        if not self.path.exists():
+            raise BackendError(f"replay file {self.path} does not exist (record one with --record)")
+        self.table = _read(self.path)
+
+    def complete(self, request: Request) -> Reply:
+        started = time.perf_counter()
+        key = request.key()
+        if key not in self.table:
+            raise BackendError(
+                f"replay file {self.path} has no reply for this prompt (key {key[:12]}…, goal {request.goal!r}, "
+                f"round {request.round}); record it first"
+            )
+        return Reply(self.table[key], time.perf_counter() - started, meta={"replayed": True})
+
+    def close(self) -> None:
+        return None
+
+
+class RecordingBackend:
+    """Wraps ``inner`` and appends every exchange it has not seen yet to ``path``."""
+
+    def __init__(self, inner: Backend, path: str | Path) -> None:
+        self.inner = inner
+        self.name = f"record:{inner.name}"
+        self.path = Path(path)
+        self.table = _read(self.path)
+
+    def complete(self, request: Request) -> Reply:
+        key = request.key()
+        if key in self.table:
+            return Reply(self.table[key], 0.0, meta={"replayed": True})
+        reply = self.inner.complete(request)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with self.path.open("a", encoding="utf-8") as handle:
+            handle.write(
+                json.dumps({"key": key, "goal": request.goal, "round": request.round, "reply": reply.text}) + "\n"
+            )
+        self.table[key] = reply.text
+        return reply
+
+    def close(self) -> None:
+        self.inner.close()

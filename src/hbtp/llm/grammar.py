@@ -1,0 +1,117 @@
+"""The grammar checker of the paper's reflective feedback: names outside the domain are found,
+repaired when the repair is unambiguous, and otherwise put on a blacklist for the model to avoid.
+
+Every repair is recorded (``walk_apple`` -> ``Walk_apple``, ``RightPutIn_apple_fridg`` ->
+``RightPutIn_apple_fridge``); nothing unknown ever reaches the planner.
+"""
+
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass
+
+from hbtp.errors import InputError
+from hbtp.llm.parse import ParsedReply
+from hbtp.llm.vocabulary import vocabulary_of
+from hbtp.logic.atoms import parse_atom
+from hbtp.logic.task import GroundTask
+from hbtp.planning.hints import Hints
+
+CUTOFF = 0.85
+
+
+@dataclass(frozen=True)
+class GrammarCheck:
+    """The checked hints, what was repaired, what is unknown, and which sections were missing."""
+
+    hints: Hints
+    repairs: tuple[str, ...]
+    unknown: tuple[str, ...]
+    missing_sections: tuple[str, ...]
+
+    @property
+    def problems(self) -> list[str]:
+        found = [f"{name} is not in the domain" for name in self.unknown]
+        found += [f"the '{section}' line is missing" for section in self.missing_sections]
+        return found
+
+    @property
+    def clean(self) -> bool:
+        return not self.unknown and not self.missing_sections
+
+
+SECTION_TITLES = {"path": "Optimal Actions", "predicates": "Vital Action Predicates", "objects": "Vital Objects"}
+
+
+class _Matcher:
+    """Exact, case-insensitive, then unambiguous close matches against a set of names."""
+
+    def __init__(self, names: frozenset[str]) -> None:
+        self.names = names
+        self.folded: dict[str, list[str]] = {}
+        for name in names:
+            self.folded.setdefault(name.lower(), []).append(name)
+        self.ordered = sorted(names)
+
+    def match(self, name: str) -> str | None:
+        if name in self.names:
+            return name
+        folded = self.folded.get(name.lower())
+        if folded is not None and len(folded) == 1:
+            return folded[0]
+        close = difflib.get_close_matches(name, self.ordered, n=2, cutoff=CUTOFF)
+        if len(close) == 1:
+            return close[0]
+        if len(close) == 2:
+            first = difflib.SequenceMatcher(None, name, close[0]).ratio()
+            second = difflib.SequenceMatcher(None, name, close[1]).ratio()
+            if first - second >= 0.05:
+                return close[0]
+        return None
+
+
+_MATCHERS: dict[int, tuple[GroundTask, _Matcher, _Matcher, _Matcher]] = {}
+
+
+def _matchers(task: GroundTask) -> tuple[_Matcher, _Matcher, _Matcher]:
+    cached = _MATCHERS.get(id(task))
+    if cached is None or cached[0] is not task:
+        vocabulary = vocabulary_of(task)
+        cached = (
+            task,
+            _Matcher(vocabulary.action_names),
+            _Matcher(vocabulary.predicate_names),
+            _Matcher(vocabulary.object_names),
+        )
+        _MATCHERS[id(task)] = cached
+    return cached[1], cached[2], cached[3]
+
+
+def check_reply(parsed: ParsedReply, task: GroundTask) -> GrammarCheck:
+    """Check every name of a parsed reply against ``task``."""
+    actions, predicates, objects = _matchers(task)
+    repairs: list[str] = []
+    unknown: list[str] = []
+
+    def resolve(matcher: _Matcher, name: str) -> str | None:
+        found = matcher.match(name)
+        if found is None:
+            unknown.append(name)
+        elif found != name:
+            repairs.append(f"{name} -> {found}")
+        return found
+
+    path: list[str] = []
+    for name in parsed.hints.path:
+        try:
+            underscored = parse_atom(name).underscored
+        except InputError:
+            underscored = name
+        found = resolve(actions, underscored)
+        if found is not None:
+            path.append(str(parse_atom(found)))
+    kept_predicates = [p for p in (resolve(predicates, n) for n in parsed.hints.predicates) if p]
+    kept_objects = [o for o in (resolve(objects, n) for n in parsed.hints.objects) if o]
+    missing = tuple(SECTION_TITLES[s] for s in ("path", "predicates", "objects") if s not in parsed.found)
+    hints = Hints(tuple(path), tuple(dict.fromkeys(kept_predicates)), tuple(dict.fromkeys(kept_objects)))
+    return GrammarCheck(hints, tuple(repairs), tuple(dict.fromkeys(unknown)), missing)

@@ -1,0 +1,201 @@
+"""Prompts in the paper's shape (Fig. 7), built from the scenario itself, and few-shot retrieval.
+
+Two shapes of the same content:
+
+* chat: a system message with the scenario (condition predicates, action predicates with costs,
+  object categories and members), the rules and few-shot demonstrations; the user asks for a goal.
+  Reflective feedback continues the conversation.
+* completion (for base models such as the local Gemma-3 270M): demonstrations only, in the datasets'
+  format, ending with ``Goals: <goal>`` and ``Optimal Actions:`` for the model to continue.
+
+Demonstrations are retrieved from the scenario's example pool by lexical similarity to *all* the
+goal's literals: shared literals count most, then shared objects, then shared predicates.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+from hbtp.datasets.records import Record
+from hbtp.llm.backend import Message, Request
+from hbtp.llm.vocabulary import vocabulary_of
+from hbtp.logic.atoms import parse_conjunction
+from hbtp.logic.task import GroundTask
+
+RULES = """[System]
+[Condition Predicates] lists the predicates of conditions and the categories of their arguments.
+[Action Predicates] lists the actions with their costs in parentheses. [Objects] lists the categories.
+[Few-shot Demonstrations] map goals to Optimal Actions, Vital Action Predicates and Vital Objects.
+1) Analyse the goal (literals of [Condition Predicates] joined by &) and find the cheapest actions that achieve it.
+2) Begin with 'Optimal Actions:' followed by a comma-separated list of actions, an underscore between the verb and \
+each object (Walk_apple, RightPutIn_apple_fridge), in execution order, minimising the total cost.
+3) Then 'Vital Action Predicates:' followed by the comma-separated verbs used.
+4) Then 'Vital Objects:' followed by the comma-separated objects used.
+5) Use only actions, predicates and objects from the lists above.
+6) Follow the demonstrations' format exactly: three lines, no explanations."""
+
+
+@dataclass(frozen=True)
+class PromptOptions:
+    examples: int = 5
+    style: str = "chat"  # "chat" or "completion"
+    include_objects: bool = True  # list category members in the chat prompt
+    max_tokens: int = 256
+
+
+def _goal_features(goal: str) -> tuple[frozenset[str], frozenset[str], frozenset[str]]:
+    try:
+        atoms = parse_conjunction(goal)
+    except Exception:  # a record with a broken goal simply matches nothing
+        return frozenset(), frozenset(), frozenset()
+    literals = frozenset(str(a) for a in atoms)
+    objects = frozenset(arg for a in atoms for arg in a.args)
+    predicates = frozenset(a.predicate for a in atoms)
+    return literals, objects, predicates
+
+
+def retrieve_examples(goal: str, pool: Sequence[Record], k: int, exclude_goal: bool = False) -> list[Record]:
+    """The ``k`` records of ``pool`` most similar to ``goal`` (ties: shorter goals, then file order)."""
+    if k <= 0 or not pool:
+        return []
+    literals, objects, predicates = _goal_features(goal)
+    scored: list[tuple[float, int, int, Record]] = []
+    for position, record in enumerate(pool):
+        other_literals, other_objects, other_predicates = _goal_features(record.goal)
+        if exclude_goal and other_literals == literals:
+            continue
+        score = (
+            3.0 * len(literals & other_literals)
+            + 2.0 * len(objects & other_objects)
+            + 1.0 * len(predicates & other_predicates)
+        )
+        scored.append((-score, len(other_literals), position, record))
+    scored.sort(key=lambda item: item[:3])
+    return [record for *_, record in scored[:k]]
+
+
+def format_example(record: Record) -> str:
+    return (
+        f"Goals: {_normal_goal(record.goal)}\n"
+        f"Optimal Actions: {', '.join(record.optimal_actions)}\n"
+        f"Vital Action Predicates: {', '.join(record.vital_predicates)}\n"
+        f"Vital Objects: {', '.join(record.vital_objects)}"
+    )
+
+
+def _normal_goal(goal: str) -> str:
+    return " & ".join(part.strip() for part in goal.split("&"))
+
+
+def scenario_text(task: GroundTask, include_objects: bool = True) -> str:
+    vocabulary = vocabulary_of(task)
+    lines = ["[Condition Predicates]", ", ".join(vocabulary.condition_predicates), "", "[Action Predicates]"]
+    lines.append(", ".join(vocabulary.action_predicates))
+    if include_objects:
+        lines += ["", "[Objects]"]
+        lines += [f"<{name}> = [{', '.join(members)}]" for name, members in vocabulary.categories]
+    return "\n".join(lines)
+
+
+def build_request(
+    task: GroundTask,
+    goal: str,
+    pool: Sequence[Record],
+    options: PromptOptions = PromptOptions(),
+    *,
+    scenario: str = "",
+    avoid: Iterable[str] = (),
+) -> Request:
+    """The first question for ``goal`` (round 0), in both shapes."""
+    examples = retrieve_examples(goal, pool, options.examples)
+    demos = "\n\n".join(format_example(r) for r in examples)
+    goal_text = _normal_goal(goal)
+    avoid_text = _avoid_text(avoid)
+    system = "\n\n".join(
+        part
+        for part in (scenario_text(task, options.include_objects), f"[Few-shot Demonstrations]\n{demos}", RULES)
+        if part
+    )
+    completion = (demos + "\n\n" if demos else "") + (avoid_text + "\n" if avoid_text else "")
+    completion += f"Goals: {goal_text}\nOptimal Actions:"
+    return Request(
+        messages=(Message("system", system), Message("user", f"Goals: {goal_text}" + _suffix(avoid_text))),
+        completion_prompt=completion,
+        goal=goal_text,
+        scenario=scenario,
+        max_tokens=options.max_tokens,
+        stop=("\n\n", "Goals:"),
+    )
+
+
+def _avoid_text(avoid: Iterable[str]) -> str:
+    items = sorted(set(avoid))
+    return f"Do not use (not in this domain): {', '.join(items)}" if items else ""
+
+
+def _suffix(text: str) -> str:
+    return f"\n{text}" if text else ""
+
+
+def retry_request(previous: Request, reply_text: str, problems: Sequence[str], blacklist: Iterable[str]) -> Request:
+    """Ask again after the grammar checker found problems (the paper's blacklist)."""
+    avoid = _avoid_text(blacklist)
+    message = "Your answer has problems: " + "; ".join(problems) + "." + _suffix(avoid)
+    message += "\nAnswer again in the required format, using only names from the lists."
+    head, _, _ = previous.completion_prompt.rpartition("Goals:")
+    completion = re.sub(r"Do not use \(not in this domain\):[^\n]*\n", "", head)
+    completion += (avoid + "\n" if avoid else "") + f"Goals: {previous.goal}\nOptimal Actions:"
+    return _replace(
+        previous,
+        messages=(*previous.messages, Message("assistant", reply_text), Message("user", message)),
+        completion_prompt=completion,
+        attempt=previous.attempt + 1,
+    )
+
+
+def feedback_request(
+    previous: Request,
+    reply_text: str,
+    longest_paths: Sequence[Sequence[str]],
+    missing_predicates: Sequence[str],
+    missing_objects: Sequence[str],
+    task: GroundTask,
+    pool: Sequence[Record],
+    examples: int,
+) -> Request:
+    """Reflective feedback (§III-C d): the top-k longest partial paths and what the space left out."""
+    lines = ["The planner could not reach the initial state with the actions you allowed."]
+    if longest_paths:
+        lines.append("The longest partial plans it found (they end at the goal):")
+        lines += [f"{i}. {', '.join(path) if path else '(none)'}" for i, path in enumerate(longest_paths, 1)]
+    if missing_predicates:
+        lines.append(f"Action predicates left out: {', '.join(missing_predicates)}")
+    if missing_objects:
+        lines.append(f"Objects left out: {', '.join(missing_objects)}")
+    lines.append(
+        "Find what is missing (an action, a predicate or an object) and answer again with "
+        "Optimal Actions, Vital Action Predicates and Vital Objects."
+    )
+    # A base model cannot follow instructions: it gets more demonstrations instead.
+    more = retrieve_examples(previous.goal, pool, examples)
+    demos = "\n\n".join(format_example(r) for r in more)
+    completion = (demos + "\n\n" if demos else "") + f"Goals: {previous.goal}\nOptimal Actions:"
+    return _replace(
+        previous,
+        messages=(*previous.messages, Message("assistant", reply_text), Message("user", "\n".join(lines))),
+        completion_prompt=completion,
+        round=previous.round + 1,
+        attempt=0,
+    )
+
+
+def _replace(request: Request, **changes: Any) -> Request:
+    return replace(request, **changes)
+
+
+def estimate_tokens(text: str) -> int:
+    """A tokenizer-free estimate: words, numbers and punctuation marks (about 1.3x words in practice)."""
+    return len(re.findall(r"[A-Za-z]+|\d+|[^\sA-Za-z\d]", text))
