@@ -1,8 +1,8 @@
 """The ``hbtp`` command line.
 
 Exit codes: 0 success; 1 the task was not solved (unsolvable, time or node limit) or a dataset has
-invalid records; 2 bad input or usage (a one-line message, no traceback); 3 an internal error (a
-bug: run with ``--debug`` for the traceback and please report it).
+invalid records; 2 bad input or usage, or an LLM backend that cannot run (a one-line message, no
+traceback); 3 an internal error (a bug: run with ``--debug`` for the traceback and please report it).
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from hbtp.cli.bench_commands import bench
 from hbtp.cli.dataset_commands import dataset
 from hbtp.cli.domain_commands import export_pddl, ground, scenarios
 from hbtp.cli.plan_command import plan_command
-from hbtp.errors import BackendError, HbtpError, PlanningError
+from hbtp.errors import HbtpError, PlanningError
 
 EXIT_OK, EXIT_NOT_SOLVED, EXIT_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
 
@@ -59,7 +59,7 @@ def main(argv: list[str] | None = None) -> int:
         if debug:
             traceback.print_exc()
         click.echo(f"hbtp: error: {error}", err=True)
-        return EXIT_NOT_SOLVED if isinstance(error, PlanningError | BackendError) else EXIT_INPUT
+        return EXIT_NOT_SOLVED if isinstance(error, PlanningError) else EXIT_INPUT
     except KeyboardInterrupt:
         click.echo("hbtp: interrupted", err=True)
         return 130

@@ -14,11 +14,16 @@ from hbtp.datasets import read_dataset_file
 from hbtp.datasets.records import Record
 from hbtp.domains import Scenario
 from hbtp.errors import DatasetError, InputError
+from hbtp.llm.backends.registry import BackendOptions, make_backend
 from hbtp.llm.parse import parse_reply
+from hbtp.llm.pool import example_pool
+from hbtp.llm.prompt import PromptOptions
 from hbtp.logic.task import Goal
+from hbtp.pipeline import LoopOptions, LoopResult, run_hbtp
 from hbtp.planning import PLANNERS, Hints, Limits, hints_from_names, plan
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
 from hbtp.planning.oracle import oracle_hints
+from hbtp.planning.result import PlanResult
 
 
 def hints_from_record(record: Record) -> Hints:
@@ -87,6 +92,23 @@ def _goal_ids(loaded: Scenario, record: Record) -> frozenset[int] | None:
 @click.option("-o", "--out", "out_file", type=click.Path(dir_okay=False), help="Write the tree as JSON.")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON instead of the tree.")
 @click.option("--max-branches", type=int, default=40, show_default=True, help="Branches shown in the terminal.")
+@click.option("--llm", "llm_spec", help="Ask an LLM for hints: local, openai, oracle, noisy-oracle or replay:FILE.")
+@click.option("--model", help="LLM model name (openai; default $HBTP_LLM_MODEL).")
+@click.option("--base-url", help="OpenAI-compatible server URL (default $OPENAI_BASE_URL).")
+@click.option("--api-key", help="API key (default $OPENAI_API_KEY; never stored).")
+@click.option("--llm-timeout", type=float, default=60.0, show_default=True, help="Seconds per LLM request.")
+@click.option("--model-path", help="GGUF file for --llm local (default: the packaged Gemma-3 270M).")
+@click.option("--threads", type=int, help="CPU threads for --llm local.")
+@click.option("--feedback-rounds", type=click.IntRange(0, 10), default=3, show_default=True)
+@click.option("--grammar-retries", type=click.IntRange(0, 10), default=2, show_default=True)
+@click.option("--examples", type=click.IntRange(0, 50), default=5, show_default=True, help="Few-shot demonstrations.")
+@click.option("--examples-from", type=click.Path(dir_okay=False), help="Your own example pool (dataset file).")
+@click.option("--round-time-limit", type=float, default=5.0, show_default=True, help="Planning seconds per round.")
+@click.option("--no-fallback", is_flag=True, help="Do not plan in the full space after the last round.")
+@click.option("--noise-drop", type=float, default=0.3, show_default=True, help="noisy-oracle: fraction dropped.")
+@click.option("--noise-insert", type=float, default=0.3, show_default=True, help="noisy-oracle: wrong actions added.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--record", type=click.Path(dir_okay=False), help="Record every LLM exchange to this JSONL file.")
 def plan_command(
     scenario: str | None,
     pddl: tuple[str, str] | None,
@@ -106,12 +128,66 @@ def plan_command(
     out_file: str | None,
     as_json: bool,
     max_branches: int,
+    llm_spec: str | None,
+    model: str | None,
+    base_url: str | None,
+    api_key: str | None,
+    llm_timeout: float,
+    model_path: str | None,
+    threads: int | None,
+    feedback_rounds: int,
+    grammar_retries: int,
+    examples: int,
+    examples_from: str | None,
+    round_time_limit: float,
+    no_fallback: bool,
+    noise_drop: float,
+    noise_insert: float,
+    seed: int,
+    record: str | None,
 ) -> int:
     """Plan a behavior tree that reaches GOAL; exit code 0 when solved, 1 when not."""
     limits = Limits(time_s=time_limit, max_expansions=max_expansions, memory_mb=memory_mb)
     loaded = load_selected(scenario, pddl, object_categories, keep_fluent, mutex_file)
     task = loaded.task
     resolved = task.resolve_goal(goal)
+    loop = None
+    if llm_spec is not None:
+        if hints_source != "none":
+            raise InputError("use either --llm or --hints, not both")
+        if not round_time_limit > 0:
+            raise InputError(f"--round-time-limit must be positive, not {round_time_limit}")
+        backend = make_backend(
+            llm_spec,
+            loaded,
+            BackendOptions(
+                model=model,
+                base_url=base_url,
+                api_key=api_key,
+                timeout=llm_timeout,
+                model_path=model_path,
+                threads=threads,
+                drop=noise_drop,
+                insert=noise_insert,
+                seed=seed,
+                record=record,
+            ),
+        )
+        options = LoopOptions(
+            planner=planner,
+            feedback_rounds=feedback_rounds,
+            grammar_retries=grammar_retries,
+            round_time_limit=round_time_limit,
+            fallback=not no_fallback,
+            fallback_time_limit=time_limit,
+            fallback_heuristic=cast(HeuristicName, heuristic),
+            prompt=PromptOptions(examples=examples, style="completion" if llm_spec == "local" else "chat"),
+        )
+        try:
+            loop = run_hbtp(loaded, resolved, backend, example_pool(loaded, examples_from), options)
+        finally:
+            backend.close()
+        return _report(loop.result, loaded, resolved, tree_kind, out_file, as_json, max_branches, "llm", loop)
     hints = load_hints(hints_source, loaded, resolved, limits)
     chosen_space = space or ("pruned" if hints is not None else "full")
     result = plan(
@@ -125,18 +201,45 @@ def plan_command(
         alpha=int(alpha) if float(alpha).is_integer() else alpha,
         limits=limits,
     )
+    hints_label = hints_source if hints_source in ("none", "oracle") else "file"
+    return _report(result, loaded, resolved, tree_kind, out_file, as_json, max_branches, hints_label, None)
+
+
+def _report(
+    result: PlanResult,
+    loaded: Scenario,
+    resolved: Goal,
+    tree_kind: str,
+    out_file: str | None,
+    as_json: bool,
+    max_branches: int,
+    hints_label: str,
+    loop: LoopResult | None,
+) -> int:
+    task = loaded.task
     tree = tree_of(result, tree_kind) if result.expansions and (result.solved or tree_kind == "full") else None
     if out_file and tree is not None:
         write_files_atomically({Path(out_file): tree_to_json(tree, task, scenario=loaded.name, goal=str(resolved))})
     if as_json:
         record = result.to_dict(task)
         record["scenario"] = loaded.name
-        record["hints"] = hints_source if hints_source in ("none", "oracle") else "file"
+        record["hints"] = hints_label
         if tree is not None:
             nodes, depth = size(tree)
             record["tree"] = {"kind": tree_kind, "nodes": nodes, "depth": depth}
+        if loop is not None:
+            record["llm"] = loop.to_dict()
         echo_json(record)
     else:
+        if loop is not None:
+            click.echo(
+                f"LLM: {loop.outcome} after {len(loop.rounds)} round(s), LLM {loop.llm_seconds:.2f} s, "
+                f"planning {loop.planning_seconds * 1000:.1f} ms"
+                + "".join(
+                    f"\n  round {r.round}: {r.status}, |A-|={r.action_space}" + (f", {r.error}" if r.error else "")
+                    for r in loop.rounds
+                )
+            )
         stats = result.stats
         click.echo(
             f"{result.status.value}: D(T)={result.cost}  explored |S-|={stats.explored}  "
