@@ -7,7 +7,16 @@ from typing import cast
 
 import click
 
+from hbtp.bench.results import write_json
 from hbtp.bench.table1 import Table1Config, run_table1
+from hbtp.bench.table2 import Table2Config, run_table2
+from hbtp.datasets import read_dataset_file
+from hbtp.domains import Scenario, scenario_names
+from hbtp.llm.backend import Backend
+from hbtp.llm.backends.first_reply import FirstReplyBackend
+from hbtp.llm.backends.registry import BackendOptions, make_backend
+from hbtp.llm.prompt import PromptOptions
+from hbtp.pipeline import LoopOptions
 from hbtp.planning import PLANNERS
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
 
@@ -63,3 +72,94 @@ def table1(
         )
     click.echo(f"wrote {Path(out_dir) / 'results.jsonl'} and {Path(out_dir) / 'summary.json'}")
     return 0
+
+
+@bench.command("table2")
+@click.option("-s", "--scenario", "scenarios", multiple=True, help="Scenario(s); default all four.")
+@click.option("--llm", "llm_spec", help="Backend (see hbtp plan --llm); default oracle, or none with --hints-from.")
+@click.option(
+    "--hints-from",
+    type=click.Path(dir_okay=False),
+    help="Dataset file whose records are the first-round replies; --llm then answers the feedback rounds.",
+)
+@click.option("--model")
+@click.option("--base-url")
+@click.option("--model-path")
+@click.option("--threads", type=int)
+@click.option("--planner", type=click.Choice(list(PLANNERS)), default="hbtp-s", show_default=True)
+@click.option("--feedback-rounds", type=click.IntRange(0, 10), default=3, show_default=True)
+@click.option("--examples", type=click.IntRange(0, 50), default=5, show_default=True)
+@click.option("--round-time-limit", type=float, default=5.0, show_default=True)
+@click.option("--runs", type=click.IntRange(1, 100), default=1, show_default=True, help="Repeat with seeds 0..N-1.")
+@click.option("--noise-drop", type=float, default=0.3, show_default=True)
+@click.option("--noise-insert", type=float, default=0.3, show_default=True)
+@click.option("--limit", type=int, help="Only the first N tasks.")
+@click.option("-o", "--out", "out_dir", required=True, type=click.Path(file_okay=False))
+@click.option("--no-progress", is_flag=True)
+def table2(
+    scenarios: tuple[str, ...],
+    llm_spec: str | None,
+    hints_from: str | None,
+    model: str | None,
+    base_url: str | None,
+    model_path: str | None,
+    threads: int | None,
+    planner: str,
+    feedback_rounds: int,
+    examples: int,
+    round_time_limit: float,
+    runs: int,
+    noise_drop: float,
+    noise_insert: float,
+    limit: int | None,
+    out_dir: str,
+    no_progress: bool,
+) -> int:
+    """Table II: LLM reasoning with HBTP on the scenarios' test sets (NF / 1F / 3F success)."""
+    names = scenarios or scenario_names()
+    records = read_dataset_file(hints_from) if hints_from else None
+    if records is None and llm_spec is None:
+        llm_spec = "oracle"
+    label = (
+        f"hints-from:{Path(hints_from).name}" + (f"+{llm_spec}" if llm_spec else "") if hints_from else str(llm_spec)
+    )
+    loop = LoopOptions(
+        planner=planner,
+        feedback_rounds=feedback_rounds,
+        round_time_limit=round_time_limit,
+        prompt=PromptOptions(examples=examples, style="completion" if llm_spec == "local" else "chat"),
+    )
+
+    def backend_for(scenario: Scenario, run: int) -> Backend:
+        options = BackendOptions(
+            model=model, base_url=base_url, model_path=model_path, threads=threads,
+            drop=noise_drop, insert=noise_insert, seed=run,
+        )  # fmt: skip
+        inner = make_backend(llm_spec, scenario, options) if llm_spec else None
+        if records is not None:
+            return FirstReplyBackend(records, inner)
+        assert inner is not None
+        return inner
+
+    rows = []
+    for name in names:
+        config = Table2Config(scenario=name, backend=label, runs=runs, limit=limit, loop=loop)
+        summary = run_table2(config, backend_for, Path(out_dir) / name, progress=not no_progress)
+        rows.append(summary)
+    write_json(Path(out_dir) / "summary.json", {"scenarios": rows})
+    click.echo(f"{'scenario':15} {'NF%':>6} {'1F%':>6} {'3F%':>6} {'final%':>7} {'|A-|':>6} {'|p^|':>5} {'|S-|':>7}"
+               f" {'plan ms':>8} {'LLM s':>6}   paper NF/1F/3F")  # fmt: skip
+    for row in rows:
+        paper = row["paper"]
+        click.echo(
+            f"{row['scenario']:15} {row['NF']:>6} {row['1F']:>6} {row['3F']:>6} {row['final']:>7} "
+            f"{_fmt(row['A_minus'])} {_fmt(row['p_hat'], 5)} {_fmt(row['explored'], 7)} "
+            f"{(row['mean_planning_s'] or 0) * 1000:>8.2f} {row['mean_llm_s'] or 0:>6.2f}   "
+            f"{paper.get('NF')}/{paper.get('1F')}/{paper.get('3F')}"
+        )
+    click.echo(f"wrote {Path(out_dir)}/<scenario>/results.jsonl and summary.json")
+    return 0
+
+
+def _fmt(value: float | None, width: int = 6) -> str:
+    return f"{value:>{width}.2f}" if value is not None else f"{'-':>{width}}"

@@ -44,6 +44,7 @@ class PromptOptions:
     style: str = "chat"  # "chat" or "completion"
     include_objects: bool = True  # list category members in the chat prompt
     max_tokens: int = 256
+    exclude_same_goal: bool = False  # benchmarks: never show a demonstration of the very goal asked
 
 
 def _goal_features(goal: str) -> tuple[frozenset[str], frozenset[str], frozenset[str]]:
@@ -110,7 +111,7 @@ def build_request(
     avoid: Iterable[str] = (),
 ) -> Request:
     """The first question for ``goal`` (round 0), in both shapes."""
-    examples = retrieve_examples(goal, pool, options.examples)
+    examples = retrieve_examples(goal, pool, options.examples, options.exclude_same_goal)
     demos = "\n\n".join(format_example(r) for r in examples)
     goal_text = _normal_goal(goal)
     avoid_text = _avoid_text(avoid)
@@ -165,6 +166,7 @@ def feedback_request(
     task: GroundTask,
     pool: Sequence[Record],
     examples: int,
+    exclude_same_goal: bool = False,
 ) -> Request:
     """Reflective feedback (§III-C d): the top-k longest partial paths and what the space left out."""
     lines = ["The planner could not reach the initial state with the actions you allowed."]
@@ -180,7 +182,7 @@ def feedback_request(
         "Optimal Actions, Vital Action Predicates and Vital Objects."
     )
     # A base model cannot follow instructions: it gets more demonstrations instead.
-    more = retrieve_examples(previous.goal, pool, examples)
+    more = retrieve_examples(previous.goal, pool, examples, exclude_same_goal)
     demos = "\n\n".join(format_example(r) for r in more)
     completion = (demos + "\n\n" if demos else "") + f"Goals: {previous.goal}\nOptimal Actions:"
     return _replace(

@@ -212,6 +212,7 @@ def run_hbtp(
                 task,
                 pool,
                 options.prompt.examples + 2 * round_number,
+                options.prompt.exclude_same_goal,
             )
         request, check, prompts, replies, llm_seconds, error = asker.ask(request)
         llm_total += llm_seconds
