@@ -1,7 +1,9 @@
 """Build behavior trees from a search (Algorithm 1).
 
 The full tree is ``Fallback(goal, Sequence(c1, a1), ..., Sequence(cn, an))`` over every expanded
-condition in expansion order: it acts from any state that satisfies an explored condition. The
+condition, cheapest cost to the goal first (see :mod:`hbtp.planning.execution` for why this order
+reaches the goal and, after an optimal search, at the optimal cost): it acts from any state that
+satisfies an explored condition. The
 path-only tree keeps just the conditions of the solution path (what the reference implementation
 outputs); it is smaller but gives up when a disturbance leaves that path.
 """
@@ -11,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Sequence as Seq
 
 from hbtp.bt.nodes import Action, Condition, Fallback, Node, Sequence
+from hbtp.planning.execution import branch_order
 from hbtp.planning.result import Expansion, PlanResult
 
 
@@ -20,7 +23,8 @@ def full_tree(expansions: Seq[Expansion]) -> Node:
         raise ValueError("a tree needs at least the goal expansion")
     goal = Condition(expansions[0].condition)
     branches: list[Node] = [goal]
-    for expansion in expansions[1:]:
+    for index in branch_order(expansions):
+        expansion = expansions[index]
         assert expansion.action is not None
         branches.append(Sequence((Condition(expansion.condition), Action(expansion.action))))
     return Fallback(tuple(branches))

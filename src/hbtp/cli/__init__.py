@@ -17,7 +17,10 @@ from hbtp import __version__
 from hbtp.cli.bench_commands import bench
 from hbtp.cli.dataset_commands import dataset
 from hbtp.cli.domain_commands import export_pddl, ground, scenarios
+from hbtp.cli.export_command import export_command
 from hbtp.cli.plan_command import plan_command
+from hbtp.cli.robustness_command import robustness
+from hbtp.cli.run_command import run_command, verify_command
 from hbtp.errors import HbtpError, PlanningError
 
 EXIT_OK, EXIT_NOT_SOLVED, EXIT_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
@@ -39,6 +42,10 @@ cli.add_command(export_pddl)
 cli.add_command(dataset)
 cli.add_command(plan_command)
 cli.add_command(bench)
+cli.add_command(export_command)
+cli.add_command(run_command)
+cli.add_command(verify_command)
+bench.add_command(robustness)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
@@ -14,6 +12,7 @@ import click
 from hbtp.domains import Scenario, load_pddl_scenario, load_scenario, scenario_names
 from hbtp.domains.scenarios import read_mutex_file
 from hbtp.errors import InputError
+from hbtp.files import write_all_atomically
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -69,19 +68,5 @@ def echo_json(data: Any) -> None:
 
 
 def write_files_atomically(files: dict[Path, str]) -> None:
-    """Write every file or none: each goes to a temporary name first, then all are renamed."""
-    staged: list[tuple[Path, Path]] = []
-    try:
-        for path, text in files.items():
-            path.parent.mkdir(parents=True, exist_ok=True)
-            with tempfile.NamedTemporaryFile(
-                "w", encoding="utf-8", dir=path.parent, prefix=f".{path.name}.", delete=False
-            ) as handle:
-                handle.write(text)
-            staged.append((Path(handle.name), path))
-    except OSError as error:
-        for temporary, _ in staged:
-            temporary.unlink(missing_ok=True)
-        raise InputError(f"cannot write {error.filename}: {error.strerror}") from None
-    for temporary, path in staged:
-        os.replace(temporary, path)
+    """Write every file or none (see :func:`hbtp.files.write_all_atomically`)."""
+    write_all_atomically(dict(files))

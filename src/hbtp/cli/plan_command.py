@@ -9,6 +9,7 @@ import click
 
 from hbtp.bt import render_text, size, tree_of
 from hbtp.bt.jsonio import tree_to_json
+from hbtp.cli.export_command import export_options, write_export
 from hbtp.cli.options import echo_json, load_selected, scenario_options, write_files_atomically
 from hbtp.datasets import read_dataset_file
 from hbtp.datasets.records import Record
@@ -90,6 +91,7 @@ def _goal_ids(loaded: Scenario, record: Record) -> frozenset[int] | None:
 @click.option("--memory-mb", type=float, help="Stop when the process grows beyond this size.")
 @click.option("--tree", "tree_kind", type=click.Choice(["full", "path"]), default="full", show_default=True)
 @click.option("-o", "--out", "out_file", type=click.Path(dir_okay=False), help="Write the tree as JSON.")
+@export_options
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON instead of the tree.")
 @click.option("--max-branches", type=int, default=40, show_default=True, help="Branches shown in the terminal.")
 @click.option("--llm", "llm_spec", help="Ask an LLM for hints: local, openai, oracle, noisy-oracle or replay:FILE.")
@@ -128,6 +130,8 @@ def plan_command(
     out_file: str | None,
     as_json: bool,
     max_branches: int,
+    export_file: str | None,
+    export_format: str | None,
     llm_spec: str | None,
     model: str | None,
     base_url: str | None,
@@ -187,7 +191,10 @@ def plan_command(
             loop = run_hbtp(loaded, resolved, backend, example_pool(loaded, examples_from), options)
         finally:
             backend.close()
-        return _report(loop.result, loaded, resolved, tree_kind, out_file, as_json, max_branches, "llm", loop)
+        return _report(
+            loop.result, loaded, resolved, tree_kind, (out_file, export_file, export_format), as_json, max_branches,
+            "llm", loop,
+        )  # fmt: skip
     hints = load_hints(hints_source, loaded, resolved, limits)
     chosen_space = space or ("pruned" if hints is not None else "full")
     result = plan(
@@ -202,7 +209,10 @@ def plan_command(
         limits=limits,
     )
     hints_label = hints_source if hints_source in ("none", "oracle") else "file"
-    return _report(result, loaded, resolved, tree_kind, out_file, as_json, max_branches, hints_label, None)
+    return _report(
+        result, loaded, resolved, tree_kind, (out_file, export_file, export_format), as_json, max_branches,
+        hints_label, None,
+    )  # fmt: skip
 
 
 def _report(
@@ -210,14 +220,17 @@ def _report(
     loaded: Scenario,
     resolved: Goal,
     tree_kind: str,
-    out_file: str | None,
+    outputs: tuple[str | None, str | None, str | None],
     as_json: bool,
     max_branches: int,
     hints_label: str,
     loop: LoopResult | None,
 ) -> int:
     task = loaded.task
+    out_file, export_file, export_format = outputs
     tree = tree_of(result, tree_kind) if result.expansions and (result.solved or tree_kind == "full") else None
+    if export_file and tree is not None:  # first: a failed export must not leave the JSON written
+        write_export(tree, task, export_file, export_format, scenario=loaded.name, goal=str(resolved))
     if out_file and tree is not None:
         write_files_atomically({Path(out_file): tree_to_json(tree, task, scenario=loaded.name, goal=str(resolved))})
     if as_json:

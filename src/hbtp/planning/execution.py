@@ -1,8 +1,15 @@
 """Run the tree of a search from a state: Fallback(goal, Sequence(c1,a1), Sequence(c2,a2), ...).
 
-At every tick the first expanded condition that holds selects its action (the goal first). The
-action of expansion ``i`` leads to a state satisfying its parent, which was expanded earlier, so the
-selected index strictly decreases and the run reaches the goal in at most one step per expansion.
+The branches are ordered by (real cost from the condition to the goal, expansion index): at every
+tick the cheapest explored condition that holds selects its action. The action of a branch leads to
+a state satisfying its parent, whose cost to the goal is lower by the action's cost and which was
+expanded earlier, so the key of the selected branch strictly decreases and the run reaches the goal
+in at most one step per branch; and the cost actually paid is at most the cost to the goal of the
+first branch that holds, so a tree built from an optimal search costs exactly the optimum.
+
+(Algorithm 1 appends branches in expansion order, which is the same order for OBTEA; under A* or
+HBTP's discounted costs the expansion order can put a costlier condition first.)
+
 This is the executor of D(T) for the planners; :mod:`hbtp.bt` builds and ticks the real tree.
 """
 
@@ -13,6 +20,11 @@ from dataclasses import dataclass
 
 from hbtp.logic.task import GroundTask, State
 from hbtp.planning.result import Expansion
+
+
+def branch_order(expansions: Sequence[Expansion]) -> list[int]:
+    """The expansions of the tree's branches (all but the goal), cheapest cost to the goal first."""
+    return sorted(range(1, len(expansions)), key=lambda i: (expansions[i].cost_to_goal, i))
 
 
 @dataclass(frozen=True)
@@ -33,12 +45,13 @@ def execute_expansions(
     """Tick the expansion tree from ``state`` (default s0) until the goal holds or nothing applies."""
     current = task.initial_state if state is None else state
     limit = max_steps if max_steps is not None else len(expansions) + 1
+    branches = [expansions[i] for i in branch_order(expansions)]
     done: list[int] = []
     cost = 0
     for _ in range(limit):
         if goal <= current:
             return Run(True, tuple(done), cost, current)
-        for expansion in expansions:
+        for expansion in branches:
             if expansion.action is not None and expansion.condition <= current:
                 action = task.actions[expansion.action]
                 current = action.progress(current)

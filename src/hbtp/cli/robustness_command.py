@@ -1,0 +1,102 @@
+"""``hbtp bench robustness``: the full tree against the path-only tree under perturbations."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import cast
+
+import click
+
+from hbtp.bench.robustness import MAX_TICKS, SCENARIOS, run_robustness
+from hbtp.cli.run_command import exit_codes
+from hbtp.planning import PLANNERS
+from hbtp.planning.heuristics import HEURISTICS, HeuristicName
+
+
+def _floats(text: str) -> tuple[float, ...]:
+    try:
+        values = tuple(float(part) for part in text.split(",") if part.strip())
+    except ValueError:
+        raise click.BadParameter(f"expected comma-separated numbers, not {text!r}", param_hint="--p") from None
+    if not values or any(not 0.0 <= v <= 1.0 for v in values):
+        raise click.BadParameter("every probability must be in [0, 1]", param_hint="--p")
+    return values
+
+
+def _figure(value: float | None, percent: bool = False) -> str:
+    if value is None:
+        return "-"
+    return f"{100 * value:.1f}%" if percent else f"{value:+.2f}"
+
+
+@click.command("robustness")
+@click.option(
+    "-o",
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Folder for results.jsonl and summary.json.",
+)
+@click.option("--p", "p_text", default="0.1,0.2", show_default=True, help="Comma-separated probabilities per tick.")
+@click.option("--runs", type=int, default=20, show_default=True, help="Perturbed runs per task, tree and p.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--scenarios", "scenario_text", default=",".join(SCENARIOS), show_default=True)
+@click.option("--planner", type=click.Choice(list(PLANNERS)), default="hbtp-s", show_default=True)
+@click.option("--heuristic", type=click.Choice(list(HEURISTICS)), default="lm", show_default=True)
+@click.option("--max-ticks", type=int, default=MAX_TICKS, show_default=True)
+@click.option("--limit", type=int, help="Only the first N tasks of each test set.")
+@click.option("--no-progress", is_flag=True, help="No progress bar.")
+@exit_codes
+def robustness(
+    out_dir: str,
+    p_text: str,
+    runs: int,
+    seed: int,
+    scenario_text: str,
+    planner: str,
+    heuristic: str,
+    max_ticks: int,
+    limit: int | None,
+    no_progress: bool,
+) -> int:
+    """Full tree vs path-only tree on the Table II test sets, with random external events."""
+    chosen = tuple(s.strip() for s in scenario_text.split(",") if s.strip())
+    unknown = [s for s in chosen if s not in SCENARIOS]
+    if unknown or not chosen:
+        raise click.BadParameter(f"unknown scenario(s) {', '.join(unknown) or '(none)'}", param_hint="--scenarios")
+    if runs < 1:
+        raise click.BadParameter("must be at least 1", param_hint="--runs")
+    if max_ticks < 1:
+        raise click.BadParameter("must be at least 1", param_hint="--max-ticks")
+    summary = run_robustness(
+        Path(out_dir),
+        p_values=_floats(p_text),
+        runs=runs,
+        seed=seed,
+        scenarios=chosen,
+        limit=limit,
+        progress=not no_progress,
+        max_ticks=max_ticks,
+        planner=planner,
+        heuristic=cast(HeuristicName, heuristic),
+    )
+    click.echo(
+        f"{'scenario':15} {'p':>4} {'tree':5} {'success':>8} {'extra ticks':>12} {'extra cost':>11} "
+        f"{'nodes':>7}  full>path  path>full"
+    )
+    for name, block in summary["scenarios"].items():
+        for p, entry in block["p"].items():
+            for kind in ("full", "path"):
+                row = entry[kind]
+                better = f"{entry['full_better']:>9}  {entry['path_better']:>9}" if kind == "full" else ""
+                nodes = f"{row['mean_nodes']:.1f}" if row["mean_nodes"] is not None else "-"
+                click.echo(
+                    f"{name:15} {p:>4} {kind:5} {_figure(row['success_rate'], True):>8} "
+                    f"{_figure(row['mean_extra_ticks']):>12} {_figure(row['mean_extra_cost']):>11} {nodes:>7}  {better}"
+                )
+    click.echo(f"wrote {Path(out_dir) / 'results.jsonl'} and {Path(out_dir) / 'summary.json'}")
+    return 0
+
+
+__all__ = ["robustness"]

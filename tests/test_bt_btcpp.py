@@ -1,0 +1,341 @@
+"""BehaviorTree.CPP v4 XML: round trips, the document's shape, errors, and runs in the real BT.CPP engine."""
+
+from __future__ import annotations
+
+import re
+import xml.etree.ElementTree as ET
+from typing import Any
+
+import pytest
+
+from hbtp.bt import Action, Condition, Fallback, Node, Sequence, tree_of
+from hbtp.bt.btcpp import BUILTIN_IDS, node_ids, tree_from_btcpp, tree_to_btcpp, used_node_ids
+from hbtp.domains import DomainBuilder, load_scenario
+from hbtp.errors import InputError
+from hbtp.logic.task import GroundTask
+from hbtp.planning import plan
+from hbtp.planning.result import PlanResult
+from helpers import run_tree
+
+GOALS = {
+    "robowaiter": ("On_Water_Table1", "On_Dessert_Bar & Low_ACTemperature"),
+    "virtualhome": ("IsIn_chicken_microwave", "IsIn_breadslice_fridge & IsIn_milk_fridge"),
+    "robothow-small": ("IsIn_apple_fridge & IsClose_fridge", "IsOn_plate_bed & IsOn_wine_kitchencabinet"),
+    "robothow": ("IsIn_milk_fridge", "IsClose_window & IsOpen_door"),
+}
+CASES = [(scenario, goal, kind) for scenario, goals in GOALS.items() for goal in goals for kind in ("full", "path")]
+WRITER_OPTIONS: list[dict[str, Any]] = [
+    {},
+    {"ports": False},
+    {"reactive": False},
+    {"explicit_leaves": True, "reactive": False},
+    {"explicit_leaves": True, "ports": False},
+]
+
+
+@pytest.fixture(scope="module")
+def planned() -> dict[tuple[str, str], tuple[GroundTask, PlanResult]]:
+    results = {}
+    for scenario, goals in GOALS.items():
+        loaded = load_scenario(scenario)
+        for goal in goals:
+            result = plan(loaded.task, goal, "obtea", mutexes=loaded.mutexes, heuristic="lm")
+            assert result.solved, (scenario, goal)
+            results[scenario, goal] = (loaded.task, result)
+    return results
+
+
+@pytest.fixture(scope="module")
+def small() -> tuple[GroundTask, Node]:
+    loaded = load_scenario("robothow-small")
+    result = plan(loaded.task, "IsIn_apple_fridge & IsClose_fridge", "obtea", mutexes=loaded.mutexes, heuristic="lm")
+    return loaded.task, tree_of(result, "path")
+
+
+# ------------------------------------------------------------------------------------------ round trip
+
+
+@pytest.mark.parametrize(("scenario", "goal", "kind"), CASES)
+def test_round_trip_gives_the_same_tree(planned: Any, scenario: str, goal: str, kind: str) -> None:
+    task, result = planned[scenario, goal]
+    tree = tree_of(result, kind)
+    for options in WRITER_OPTIONS:
+        text = tree_to_btcpp(tree, task, scenario=scenario, goal=goal, **options)
+        assert tree_from_btcpp(text, task) == tree, options
+
+
+def test_writer_is_deterministic(small: tuple[GroundTask, Node]) -> None:
+    task, tree = small
+    assert tree_to_btcpp(tree, task, goal="g") == tree_to_btcpp(tree, task, goal="g")
+
+
+def test_round_trip_of_edge_shapes() -> None:
+    task = (
+        DomainBuilder("t")
+        .constants(["self"])
+        .action("Go(a)", add=["At(a)"])
+        .action("Rest()", pre=["At(a)"], add=["Rested()"])
+        .initial([])
+        .build()
+    )
+    at = task.atom_id("At(a)")
+    rested = task.atom_id("Rested()")
+    trees: list[Node] = [
+        Condition(frozenset()),
+        Condition(frozenset({rested})),
+        Action(task.action("Rest()").index),
+        Sequence((Condition(frozenset({at})), Condition(frozenset({rested})))),  # a real Sequence of conditions
+        Fallback((Sequence((Fallback((Condition(frozenset({at, rested})),)),)), Action(0))),
+    ]
+    for tree in trees:
+        for options in WRITER_OPTIONS:
+            assert tree_from_btcpp(tree_to_btcpp(tree, task, **options), task) == tree, (tree, options)
+
+
+# ------------------------------------------------------------------------------------ document shape
+
+
+def test_document_shape_and_model(small: tuple[GroundTask, Node]) -> None:
+    task, tree = small
+    root = ET.fromstring(tree_to_btcpp(tree, task, tree_id="Fridge"))
+    assert root.tag == "root"
+    assert root.attrib == {"BTCPP_format": "4", "main_tree_to_execute": "Fridge"}
+    (behavior_tree,) = root.findall("BehaviorTree")
+    assert behavior_tree.get("ID") == "Fridge"
+    top = behavior_tree[0]
+    assert top.tag == "ReactiveFallback"
+    assert {child.tag for child in top[1:]} == {"ReactiveSequence"}
+    goal_group = top[0]
+    assert goal_group.tag == "Sequence"
+    assert goal_group.get("name") == "Condition"
+    assert [leaf.get("name") for leaf in goal_group] == ["IsClose(fridge)", "IsIn(apple,fridge)"]
+    assert goal_group[1].attrib == {"name": "IsIn(apple,fridge)", "arg1": "apple", "arg2": "fridge"}
+
+    model = root.find("TreeNodesModel")
+    assert model is not None
+    listed = {(entry.tag, entry.get("ID")): [port.get("name") for port in entry] for entry in model}
+    conditions, actions = used_node_ids(tree, task)
+    assert set(listed) == {("Condition", c) for c in conditions} | {("Action", a) for a in actions}
+    assert listed["Action", "RightPutIn"] == ["arg1", "arg2"]
+    assert listed["Condition", "IsOpen"] == ["arg1"]
+    # every leaf of the tree is declared in the model, with exactly the ports it uses
+    for element in behavior_tree.iter():
+        if element.tag in {"Sequence", "ReactiveSequence", "ReactiveFallback", "BehaviorTree"}:
+            continue
+        kind = "Condition" if ("Condition", element.tag) in listed else "Action"
+        ports = sorted(key for key in element.attrib if key != "name")
+        assert ports == listed[kind, element.tag]
+
+
+def test_explicit_leaves_and_plain_controls(small: tuple[GroundTask, Node]) -> None:
+    task, tree = small
+    root = ET.fromstring(tree_to_btcpp(tree, task, explicit_leaves=True, reactive=False))
+    top = root.find("BehaviorTree/Fallback")
+    assert top is not None
+    walk_leaf = top[-1][1]
+    assert walk_leaf.tag == "Action"
+    assert walk_leaf.attrib == {"ID": "Walk", "name": "Walk(apple)", "arg1": "apple"}
+    assert top[-1].tag == "Sequence"
+
+
+def test_ports_false_keeps_only_grounded_names(small: tuple[GroundTask, Node]) -> None:
+    task, tree = small
+    text = tree_to_btcpp(tree, task, ports=False)
+    assert "arg1" not in text
+    assert "input_port" not in text
+    assert '<RightPutIn name="RightPutIn(apple,fridge)" />' in text
+
+
+def test_comment_and_ids_are_escaped(small: tuple[GroundTask, Node]) -> None:
+    task, tree = small
+    goal = 'a -- b & <c> "d"-'
+    text = tree_to_btcpp(tree, task, goal=goal, scenario="x--y", tree_id='Main "&" <tree>')
+    root = ET.fromstring(text)  # well formed
+    assert root.get("main_tree_to_execute") == 'Main "&" <tree>'
+    assert "--" not in text.split("<!--", 1)[1].split("-->", 1)[0]
+    assert tree_from_btcpp(text, task) == tree
+
+
+def test_clashing_names_get_distinct_ids() -> None:
+    task = (
+        DomainBuilder("clash")
+        .action("Open(door)", add=["Open(door)"])  # predicate and action predicate share a name
+        .action("Sleep()", pre=["Open(door)"], add=["Rested()"])  # a BT.CPP built-in node ID
+        .action("Sequence(door)", pre=["Rested()"], add=["Done(door)"])
+        .initial([])
+        .build()
+    )
+    ids = node_ids(task)
+    assert ids.actions == {"Open": "Open", "Sequence": "Sequence_action", "Sleep": "Sleep_action"}
+    assert ids.conditions["Open"] == "Open_condition"
+    assert ids.conditions["Rested"] == "Rested"
+    all_ids = list(ids.conditions.values()) + list(ids.actions.values())
+    assert len(set(all_ids)) == len(all_ids)
+    assert not set(all_ids) & BUILTIN_IDS
+    result = plan(task, "Done_door", "obtea")
+    tree = tree_of(result, "full")
+    for options in WRITER_OPTIONS:
+        assert tree_from_btcpp(tree_to_btcpp(tree, task, **options), task) == tree
+
+
+# ------------------------------------------------------------------------------------------------ reader
+
+
+def _document(body: str, head: str = '<root BTCPP_format="4" main_tree_to_execute="Main">') -> str:
+    return f'{head}<BehaviorTree ID="Main">{body}</BehaviorTree></root>'
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("<root BTCPP_format='4'><BehaviorTree ID='Main'>", "not valid XML"),
+        ("not xml at all", "not valid XML"),
+        ("<tree/>", "not a BehaviorTree.CPP document"),
+        (_document('<IsOpen arg1="fridge"/>', "<root main_tree_to_execute='Main'>"), "v3 document"),
+        (_document('<IsOpen arg1="fridge"/>', '<root BTCPP_format="3">'), 'BTCPP_format="3"'),
+        (_document('<IsOpen arg1="fridge"/>', '<root BTCPP_format="5">'), "unsupported BTCPP_format"),
+        ('<root BTCPP_format="4"/>', "no <BehaviorTree>"),
+        (_document('<IsOpen arg1="fridge"/>', '<root BTCPP_format="4" main_tree_to_execute="Other">'), "names no"),
+        (_document('<Fly arg1="fridge"/>'), "unknown node ID 'Fly'"),
+        (_document('<Condition ID="Fly" arg1="fridge"/>'), "unknown condition ID 'Fly'"),
+        (_document('<Action ID="IsOpen" arg1="fridge"/>'), "it is a condition ID"),
+        (_document('<IsOpen arg1="spaceship"/>'), "spaceship"),
+        (_document('<IsIn arg1="apple"/>'), "takes 2 argument"),
+        (_document('<IsIn arg1="apple" arg3="fridge"/>'), "without gaps"),
+        (_document('<Walk arg1="fridge" arg2="apple"/>'), "not a grounded action"),
+        (_document('<IsOpen arg1="{target}"/>'), "blackboard"),
+        (_document('<IsOpen arg1="fridge" _skipIf="x"/>'), "unsupported attribute '_skipIf'"),
+        (_document('<Inverter><IsOpen arg1="fridge"/></Inverter>'), "no counterpart"),
+        (_document('<Parallel><IsOpen arg1="fridge"/></Parallel>'), "not supported"),
+        (_document('<SequenceWithMemory><IsOpen arg1="fridge"/></SequenceWithMemory>'), "keeps its position"),
+        (_document("<Sequence/>"), "at least one child"),
+        (_document('<IsOpen arg1="fridge"/><IsOpen arg1="fridge"/>'), "exactly one child"),
+        (_document('<SubTree ID="Main"/>'), "includes itself"),
+        (_document('<SubTree ID="Nowhere"/>'), "names no <BehaviorTree>"),
+        (_document('<Control ID="Parallel"><IsOpen arg1="fridge"/></Control>'), "unsupported control node"),
+    ],
+)
+def test_reader_rejects_bad_documents(small: tuple[GroundTask, Node], text: str, message: str) -> None:
+    task, _ = small
+    with pytest.raises(InputError, match=re.escape(message)) as error:
+        tree_from_btcpp(text, task, source="tree.xml")
+    assert str(error.value).startswith("tree.xml: ")
+    assert "\n" not in str(error.value)
+
+
+def test_reader_accepts_hand_written_forms(small: tuple[GroundTask, Node]) -> None:
+    task, _ = small
+    text = (
+        '<root BTCPP_format="4" main_tree_to_execute="Main">'
+        '<BehaviorTree ID="Main"><Control ID="Fallback">'
+        '<Condition ID="IsOpen" name="whatever" arg1="fridge"/><SubTree ID="Open" name="open it"/>'
+        "</Control></BehaviorTree>"
+        '<BehaviorTree ID="Open"><Sequence><IsClose name="IsClose(fridge)"/><Open name="Open(fridge)"/></Sequence>'
+        "</BehaviorTree></root>"
+    )
+    is_open = Condition(frozenset({task.atom_id("IsOpen(fridge)")}))
+    is_close = Condition(frozenset({task.atom_id("IsClose(fridge)")}))
+    expected = Fallback((is_open, Sequence((is_close, Action(task.action("Open(fridge)").index)))))
+    assert tree_from_btcpp(text, task) == expected
+
+
+# ------------------------------------------------------------------------------------- the real engine
+
+
+def _without_ports(xml_text: str) -> str:
+    """The document with every ``argN`` attribute and ``input_port`` element removed, re-serialized."""
+    root = ET.fromstring(xml_text)
+    for element in root.iter():
+        for key in [k for k in element.attrib if re.fullmatch(r"arg[0-9]+", k)]:
+            del element.attrib[key]
+        for port in element.findall("input_port"):
+            element.remove(port)
+    for element in root.iter():
+        element.text = element.tail = None
+    ET.indent(root, space="  ")
+    return ET.tostring(root, encoding="unicode")
+
+
+class SymbolicEngine:
+    """BT.CPP node callbacks backed by hbtp's symbolic state.
+
+    Conditions succeed iff their literal holds. An action whose preconditions hold applies its effects
+    and returns RUNNING (a stateful action: on_start and on_running alike), as in hbtp's own ticking;
+    the reactive parents then restart from the goal on the next tick, so the root succeeds exactly
+    when the goal holds. Leaves are identified by their grounded ``name``: behaviortreepy 0.1.4
+    registers callbacks without ports.
+    """
+
+    def __init__(self, bt: Any, task: GroundTask, tree: Node) -> None:
+        self.bt = bt
+        self.task = task
+        self.state = task.initial_state
+        self.executed: list[int] = []
+        self.errors: list[str] = []  # the binding turns a Python exception into FAILURE: collect them
+        self.factory = bt.BehaviorTreeFactory()
+        conditions, actions = used_node_ids(tree, task)
+        for node_id in conditions:
+            self.factory.register_simple_condition(node_id, self.condition)
+        for node_id in actions:
+            self.factory.register_simple_stateful_action(node_id, self.action, self.action)
+
+    def condition(self, node: Any) -> Any:
+        try:
+            holds = self.task.atom_id(node.name()) in self.state
+        except Exception as error:
+            self.errors.append(repr(error))
+            raise
+        return self.bt.NodeStatus.SUCCESS if holds else self.bt.NodeStatus.FAILURE
+
+    def action(self, node: Any) -> Any:
+        try:
+            grounded = self.task.action(node.name())
+        except Exception as error:
+            self.errors.append(repr(error))
+            raise
+        if not grounded.applicable(self.state):
+            return self.bt.NodeStatus.FAILURE
+        self.state = grounded.progress(self.state)
+        self.executed.append(grounded.index)
+        return self.bt.NodeStatus.RUNNING
+
+    def run(self, xml_text: str, max_ticks: int = 200) -> Any:
+        tree = self.factory.create_tree_from_text(xml_text)
+        status = self.bt.NodeStatus.IDLE
+        for _ in range(max_ticks):
+            status = tree.tick_once()
+            if status != self.bt.NodeStatus.RUNNING:
+                break
+        return status
+
+
+@pytest.mark.parametrize(("scenario", "goal", "kind"), CASES)
+def test_behaviortree_cpp_ticks_the_exported_tree_to_the_goal(
+    planned: Any, scenario: str, goal: str, kind: str
+) -> None:
+    bt = pytest.importorskip("behaviortreepy")
+    task, result = planned[scenario, goal]
+    tree = tree_of(result, kind)
+    ours = run_tree(tree, task, task.initial_state, max_ticks=200)
+    assert ours.reached
+    assert ours.actions == result.executed
+
+    xml_text = tree_to_btcpp(tree, task, ports=False)
+    engine = SymbolicEngine(bt, task, tree)
+    status = engine.run(xml_text)
+    assert engine.errors == []
+    assert status == bt.NodeStatus.SUCCESS
+    assert tuple(engine.executed) == result.executed
+    assert result.goal.ids <= engine.state
+    # the default export differs from what the engine ran only by its ports
+    assert _without_ports(tree_to_btcpp(tree, task)) == _without_ports(xml_text)
+
+
+def test_behaviortree_cpp_rejects_unregistered_ids_and_loads_every_layout(small: tuple[GroundTask, Node]) -> None:
+    bt = pytest.importorskip("behaviortreepy")
+    task, tree = small
+    engine = SymbolicEngine(bt, task, tree)
+    # the explicit <Condition ID=...> form loads under plain Sequence/Fallback
+    engine.factory.create_tree_from_text(tree_to_btcpp(tree, task, ports=False, explicit_leaves=True, reactive=False))
+    with pytest.raises(RuntimeError):
+        bt.BehaviorTreeFactory().create_tree_from_text(tree_to_btcpp(tree, task, ports=False))
