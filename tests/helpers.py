@@ -43,7 +43,7 @@ def random_task(seed: int) -> tuple[GroundTask, Goal]:
     facts = [f"F(x{i})" for i in range(n_facts)]
     builder = DomainBuilder(f"random-{seed}")
     for j in range(rng.randint(5, 12)):
-        pre = rng.sample(facts, rng.randint(0, 3))
+        pre = rng.sample(facts, min(len(facts), rng.randint(0, 3)))
         add = rng.sample(facts, rng.randint(1, 3))
         others = [f for f in facts if f not in add]
         delete = rng.sample(others, min(len(others), rng.randint(0, 3)))
@@ -59,7 +59,11 @@ def random_task(seed: int) -> tuple[GroundTask, Goal]:
         initial.append(f"At({rng.choice(LOCATIONS)})")
     builder.initial(initial)
     task = builder.build()
-    goal_ids = rng.sample(range(len(task.atoms)), min(rng.randint(1, 3), len(task.atoms)))
+    # The first goal atom is false in s0 whenever possible, so that few goals hold from the start.
+    atoms = range(len(task.atoms))
+    missing = [i for i in atoms if i not in task.initial_state] or list(atoms)
+    first = rng.choice(missing)
+    goal_ids = {first, *rng.sample([i for i in atoms if i != first], min(rng.randint(0, 2), len(atoms) - 1))}
     goal = task.resolve_goal([task.atoms[i] for i in sorted(goal_ids)])
     return task, goal
 

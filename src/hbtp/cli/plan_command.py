@@ -88,6 +88,14 @@ def _goal_ids(loaded: Scenario, record: Record) -> frozenset[int] | None:
 @click.option("--alpha", type=float, default=10_000, show_default=True, help="HBTP-O discount divisor.")
 @click.option("-t", "--time-limit", type=float, default=60.0, show_default=True, help="Seconds.")
 @click.option("--max-expansions", type=int, help="Stop after this many expanded conditions.")
+@click.option(
+    "--robust",
+    "extra_expansions",
+    type=click.IntRange(0),
+    default=0,
+    show_default=True,
+    help="Explore N more conditions after the solution: a larger tree that recovers from more disturbances.",
+)
 @click.option("--memory-mb", type=float, help="Stop when the process grows beyond this size.")
 @click.option("--tree", "tree_kind", type=click.Choice(["full", "path"]), default="full", show_default=True)
 @click.option("-o", "--out", "out_file", type=click.Path(dir_okay=False), help="Write the tree as JSON.")
@@ -125,6 +133,7 @@ def plan_command(
     alpha: float,
     time_limit: float,
     max_expansions: int | None,
+    extra_expansions: int,
     memory_mb: float | None,
     tree_kind: str,
     out_file: str | None,
@@ -207,6 +216,7 @@ def plan_command(
         heuristic=cast(HeuristicName, heuristic),
         alpha=int(alpha) if float(alpha).is_integer() else alpha,
         limits=limits,
+        extra_expansions=extra_expansions,
     )
     hints_label = hints_source if hints_source in ("none", "oracle") else "file"
     return _report(

@@ -9,7 +9,10 @@ Two shapes of the same content:
   format, ending with ``Goals: <goal>`` and ``Optimal Actions:`` for the model to continue.
 
 Demonstrations are retrieved from the scenario's example pool by lexical similarity to *all* the
-goal's literals: shared literals count most, then shared objects, then shared predicates.
+goal's literals: the Jaccard similarity of the literal sets counts most, then that of the objects,
+then that of the predicates, so a short demonstration of the same kind beats a long one that merely
+mentions the same object. In the completion prompt the most similar demonstration comes last, next
+to the question.
 """
 
 from __future__ import annotations
@@ -38,12 +41,16 @@ each object (Walk_apple, RightPutIn_apple_fridge), in execution order, minimisin
 6) Follow the demonstrations' format exactly: three lines, no explanations."""
 
 
+#: Three short lines; a base model that starts repeating itself is cut off here.
+COMPLETION_MAX_TOKENS = 160
+
+
 @dataclass(frozen=True)
 class PromptOptions:
     examples: int = 5
     style: str = "chat"  # "chat" or "completion"
     include_objects: bool = True  # list category members in the chat prompt
-    max_tokens: int = 256
+    max_tokens: int = 256  # chat; completion replies get COMPLETION_MAX_TOKENS
     exclude_same_goal: bool = False  # benchmarks: never show a demonstration of the very goal asked
 
 
@@ -58,6 +65,11 @@ def _goal_features(goal: str) -> tuple[frozenset[str], frozenset[str], frozenset
     return literals, objects, predicates
 
 
+def _jaccard(left: frozenset[str], right: frozenset[str]) -> float:
+    union = len(left | right)
+    return len(left & right) / union if union else 0.0
+
+
 def retrieve_examples(goal: str, pool: Sequence[Record], k: int, exclude_goal: bool = False) -> list[Record]:
     """The ``k`` records of ``pool`` most similar to ``goal`` (ties: shorter goals, then file order)."""
     if k <= 0 or not pool:
@@ -69,9 +81,9 @@ def retrieve_examples(goal: str, pool: Sequence[Record], k: int, exclude_goal: b
         if exclude_goal and other_literals == literals:
             continue
         score = (
-            3.0 * len(literals & other_literals)
-            + 2.0 * len(objects & other_objects)
-            + 1.0 * len(predicates & other_predicates)
+            3.0 * _jaccard(literals, other_literals)
+            + 2.0 * _jaccard(objects, other_objects)
+            + 1.0 * _jaccard(predicates, other_predicates)
         )
         scored.append((-score, len(other_literals), position, record))
     scored.sort(key=lambda item: item[:3])
@@ -113,6 +125,7 @@ def build_request(
     """The first question for ``goal`` (round 0), in both shapes."""
     examples = retrieve_examples(goal, pool, options.examples, options.exclude_same_goal)
     demos = "\n\n".join(format_example(r) for r in examples)
+    closest_last = "\n\n".join(format_example(r) for r in reversed(examples))
     goal_text = _normal_goal(goal)
     avoid_text = _avoid_text(avoid)
     system = "\n\n".join(
@@ -120,14 +133,16 @@ def build_request(
         for part in (scenario_text(task, options.include_objects), f"[Few-shot Demonstrations]\n{demos}", RULES)
         if part
     )
-    completion = (demos + "\n\n" if demos else "") + (avoid_text + "\n" if avoid_text else "")
+    completion = (closest_last + "\n\n" if closest_last else "") + (avoid_text + "\n" if avoid_text else "")
     completion += f"Goals: {goal_text}\nOptimal Actions:"
     return Request(
         messages=(Message("system", system), Message("user", f"Goals: {goal_text}" + _suffix(avoid_text))),
         completion_prompt=completion,
         goal=goal_text,
         scenario=scenario,
-        max_tokens=options.max_tokens,
+        max_tokens=min(options.max_tokens, COMPLETION_MAX_TOKENS)
+        if options.style == "completion"
+        else options.max_tokens,
         stop=("\n\n", "Goals:"),
     )
 
@@ -183,7 +198,7 @@ def feedback_request(
     )
     # A base model cannot follow instructions: it gets more demonstrations instead.
     more = retrieve_examples(previous.goal, pool, examples, exclude_same_goal)
-    demos = "\n\n".join(format_example(r) for r in more)
+    demos = "\n\n".join(format_example(r) for r in reversed(more))
     completion = (demos + "\n\n" if demos else "") + f"Goals: {previous.goal}\nOptimal Actions:"
     return _replace(
         previous,

@@ -4,7 +4,7 @@ from hbtp.planning.hints import Hints, ResolvedHints, hints_from_names, pruned_a
 from hbtp.planning.limits import Limits
 from hbtp.planning.planners import PLANNER_DESCRIPTIONS, PLANNERS, plan, planner_config
 from hbtp.planning.result import Expansion, PlanResult, SearchStats, Status
-from hbtp.planning.search import SearchConfig, search
+from hbtp.planning.search import SearchConfig, release_search_memory, search
 
 __all__ = [
     "PLANNERS",
@@ -21,6 +21,7 @@ __all__ = [
     "plan",
     "planner_config",
     "pruned_action_space",
+    "release_search_memory",
     "resolve_hints",
     "search",
 ]

@@ -53,11 +53,13 @@ def plan(
     heuristic: HeuristicName = "none",
     alpha: Number = 10_000,
     limits: Limits | None = None,
+    extra_expansions: int = 0,
 ) -> PlanResult:
     """Plan a behavior tree for ``goal``.
 
     ``space="pruned"`` searches A⁻ = (Q⁻ × O⁻) ∩ A built from the hints; ``"full"`` every action.
     Hints naming unknown actions, predicates or objects are reported in the log and ignored.
+    ``extra_expansions`` explores that many more conditions after the solution (a more reactive tree).
     """
     config = planner_config(planner, heuristic=heuristic, alpha=alpha)
     resolved_goal = task.resolve_goal(goal) if isinstance(goal, str) else goal
@@ -76,4 +78,9 @@ def plan(
         actions = task.actions
     else:
         raise InputError(f"unknown action space {space!r}; choose full or pruned")
-    return search(task, resolved_goal, actions, config, mutexes=mutexes, hints=resolved, limits=limits)
+    if extra_expansions < 0:
+        raise InputError(f"extra expansions must not be negative, not {extra_expansions}")
+    return search(
+        task, resolved_goal, actions, config, mutexes=mutexes, hints=resolved, limits=limits,
+        extra_expansions=extra_expansions,
+    )  # fmt: skip

@@ -48,6 +48,7 @@ class SearchStats:
     pruned_dead_end: int = 0
     time_s: float = 0.0
     action_space: int = 0
+    tree_conditions: int = 0  # conditions in the tree: explored, plus any robustness expansions
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -58,6 +59,7 @@ class SearchStats:
             "pruned_dead_end": self.pruned_dead_end,
             "time_s": self.time_s,
             "action_space": self.action_space,
+            "tree_conditions": self.tree_conditions,
         }
 
 
