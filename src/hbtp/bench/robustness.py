@@ -34,7 +34,7 @@ log = logging.getLogger(__name__)
 
 SCENARIOS = ("robowaiter", "virtualhome", "robothow-small", "robothow")
 TREES = ("full", "path")
-KEY = ("scenario", "task", "planner", "heuristic", "p", "tree", "runs", "seed", "max_ticks")
+KEY = ("scenario", "task", "planner", "heuristic", "robust", "p", "tree", "runs", "seed", "max_ticks")
 MAX_TICKS = 500
 TIME_LIMIT = 30.0
 
@@ -58,6 +58,7 @@ def plan_record(
     time_limit: float = TIME_LIMIT,
     planner: str = "hbtp-s",
     heuristic: HeuristicName = "lm",
+    robust: int = 0,
 ) -> tuple[PlanResult, str]:
     """HBTP-S (or ``planner``) in the pruned space with the record's hints and the landmark
     heuristic (or ``heuristic``); OBTEA in the full space with the landmark heuristic if that fails.
@@ -75,6 +76,7 @@ def plan_record(
         mutexes=scenario.mutexes,
         heuristic=heuristic,
         limits=limits,
+        extra_expansions=robust,
     )
     if result.solved:
         return result, f"{planner}/pruned"
@@ -100,8 +102,11 @@ def run_robustness(
     max_ticks: int = MAX_TICKS,
     planner: str = "hbtp-s",
     heuristic: HeuristicName = "lm",
+    robust: int = 0,
 ) -> dict[str, Any]:
     """Run (or resume) the benchmark into ``out_dir``; returns the summary (also ``summary.json``).
+
+    ``robust`` explores that many more conditions after each solution (``hbtp plan --robust``).
 
     ``planner`` plans in the pruned space with ``heuristic`` (default HBTP-S with the landmark
     heuristic); ``limit``
@@ -126,13 +131,15 @@ def run_robustness(
     loaded: dict[str, Scenario] = {}
     for name, record in work:
         mine = [
-            (name, record.id, planner, heuristic, p, kind, runs, seed, max_ticks) for p in p_values for kind in TREES
+            (name, record.id, planner, heuristic, robust, p, kind, runs, seed, max_ticks)
+            for p in p_values
+            for kind in TREES
         ]
         keys.extend(mine)
         if any(key not in results for key in mine):
             if name not in loaded:
                 loaded[name] = load_scenario(name)
-            for row in _run_task(loaded[name], record, p_values, runs, seed, max_ticks, planner, heuristic):
+            for row in _run_task(loaded[name], record, p_values, runs, seed, max_ticks, planner, heuristic, robust):
                 if results.key(row) not in results:
                     results.append(row)
         bar.update(1)
@@ -147,6 +154,7 @@ def run_robustness(
         "scenarios": list(scenarios),
         "planner": planner,
         "heuristic": heuristic,
+        "robust": robust,
     }
     summary["elapsed_s"] = round(time.perf_counter() - started, 3)
     write_json(out / "summary.json", summary)
@@ -162,10 +170,11 @@ def _run_task(
     max_ticks: int,
     planner: str,
     heuristic: HeuristicName,
+    robust: int = 0,
 ) -> list[dict[str, Any]]:
     task = scenario.task
     started = time.perf_counter()
-    result, how = plan_record(scenario, record, planner=planner, heuristic=heuristic)
+    result, how = plan_record(scenario, record, planner=planner, heuristic=heuristic, robust=robust)
     plan_time = round(time.perf_counter() - started, 6)
     goal = task.resolve_goal(record.goal)
     base: dict[str, Any] = {
@@ -175,6 +184,7 @@ def _run_task(
         "goal": record.goal.strip(),
         "planner": planner,
         "heuristic": heuristic,
+        "robust": robust,
         "planned_with": how,
         "solved": result.solved,
         "explored": result.stats.explored,

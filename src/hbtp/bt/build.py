@@ -55,5 +55,5 @@ def tree_of(result: PlanResult, kind: str = "full") -> Node:
     if kind == "path":
         if not result.solved:
             raise ValueError("a path-only tree needs a solved result")
-        return path_tree(result.expansions)
+        return path_tree(result.expansions, result.final)
     raise ValueError(f"unknown tree kind {kind!r}; choose full or path")

@@ -45,6 +45,9 @@ def _figure(value: float | None, percent: bool = False) -> str:
 @click.option("--planner", type=click.Choice(list(PLANNERS)), default="hbtp-s", show_default=True)
 @click.option("--heuristic", type=click.Choice(list(HEURISTICS)), default="lm", show_default=True)
 @click.option("--max-ticks", type=int, default=MAX_TICKS, show_default=True)
+@click.option(
+    "--robust", type=click.IntRange(0), default=0, show_default=True, help="Extra expansions after each solution."
+)
 @click.option("--limit", type=int, help="Only the first N tasks of each test set.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 @exit_codes
@@ -57,6 +60,7 @@ def robustness(
     planner: str,
     heuristic: str,
     max_ticks: int,
+    robust: int,
     limit: int | None,
     no_progress: bool,
 ) -> int:
@@ -78,6 +82,7 @@ def robustness(
         limit=limit,
         progress=not no_progress,
         max_ticks=max_ticks,
+        robust=robust,
         planner=planner,
         heuristic=cast(HeuristicName, heuristic),
     )

@@ -81,6 +81,7 @@ class PlanResult:
     cost: int | None = None
     stats: SearchStats = field(default_factory=SearchStats)
     message: str = ""
+    final: int | None = None  # the expansion whose condition holds in s0 (the end of the solution path)
 
     @property
     def solved(self) -> bool:

@@ -484,7 +484,15 @@ class _Search:
                 message="internal error: the tree did not reach the goal when executed from s0",
             )
         return PlanResult(
-            Status.SOLVED, self.config.name, self.goal, expansions, tuple(path), run.actions, run.cost, stats
+            Status.SOLVED,
+            self.config.name,
+            self.goal,
+            expansions,
+            tuple(path),
+            run.actions,
+            run.cost,
+            stats,
+            final=self.position[final],
         )
 
 
