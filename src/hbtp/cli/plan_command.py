@@ -8,6 +8,7 @@ from typing import cast
 import click
 
 from hbtp.bt import render_text, size, tree_of
+from hbtp.bt.compact import compact
 from hbtp.bt.jsonio import tree_to_json
 from hbtp.cli.export_command import export_options, write_export
 from hbtp.cli.options import echo_json, load_selected, scenario_options, write_files_atomically
@@ -98,6 +99,7 @@ def _goal_ids(loaded: Scenario, record: Record) -> frozenset[int] | None:
 )
 @click.option("--memory-mb", type=float, help="Stop when the process grows beyond this size.")
 @click.option("--tree", "tree_kind", type=click.Choice(["full", "path"]), default="full", show_default=True)
+@click.option("--compact", is_flag=True, help="Merge conditions shared by adjacent branches (same behaviour).")
 @click.option("-o", "--out", "out_file", type=click.Path(dir_okay=False), help="Write the tree as JSON.")
 @export_options
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON instead of the tree.")
@@ -136,6 +138,7 @@ def plan_command(
     extra_expansions: int,
     memory_mb: float | None,
     tree_kind: str,
+    compact: bool,
     out_file: str | None,
     as_json: bool,
     max_branches: int,
@@ -201,7 +204,8 @@ def plan_command(
         finally:
             backend.close()
         return _report(
-            loop.result, loaded, resolved, tree_kind, (out_file, export_file, export_format), as_json, max_branches,
+            loop.result, loaded, resolved, (tree_kind, compact), (out_file, export_file, export_format), as_json,
+            max_branches,
             "llm", loop,
         )  # fmt: skip
     hints = load_hints(hints_source, loaded, resolved, limits)
@@ -220,7 +224,8 @@ def plan_command(
     )
     hints_label = hints_source if hints_source in ("none", "oracle") else "file"
     return _report(
-        result, loaded, resolved, tree_kind, (out_file, export_file, export_format), as_json, max_branches,
+        result, loaded, resolved, (tree_kind, compact), (out_file, export_file, export_format), as_json,
+        max_branches,
         hints_label, None,
     )  # fmt: skip
 
@@ -229,7 +234,7 @@ def _report(
     result: PlanResult,
     loaded: Scenario,
     resolved: Goal,
-    tree_kind: str,
+    tree_shape: tuple[str, bool],
     outputs: tuple[str | None, str | None, str | None],
     as_json: bool,
     max_branches: int,
@@ -238,7 +243,10 @@ def _report(
 ) -> int:
     task = loaded.task
     out_file, export_file, export_format = outputs
+    tree_kind, compacted = tree_shape
     tree = tree_of(result, tree_kind) if result.expansions and (result.solved or tree_kind == "full") else None
+    if tree is not None and compacted:
+        tree = compact(tree)
     if export_file and tree is not None:  # first: a failed export must not leave the JSON written
         write_export(tree, task, export_file, export_format, scenario=loaded.name, goal=str(resolved))
     if out_file and tree is not None:
