@@ -1,13 +1,24 @@
 """Check OBTEA's optimality against Fast Downward (the optional ``validate`` extra).
 
 A record's goal is exported with :func:`~hbtp.domains.pddl_writer.write_grounded` (the exact task
-the planners search, as STRIPS + action costs), read by unified-planning and solved by Fast
-Downward's optimal configuration (A* with LM-cut). Its cost must equal OBTEA's D(T).
+the planners search, as STRIPS + action costs) and solved by Fast Downward's optimal configuration,
+A* with LM-cut. Its plan is replayed in hbtp's task and its cost must equal OBTEA's D(T).
+
+Two ways to run Fast Downward, both from the ``up-fast-downward`` package:
+
+* ``unified-planning``: unified-planning's ``PDDLReader`` reads the files and
+  ``OneshotPlanner(name="fast-downward-opt")`` solves them. The reader needs seconds for a few
+  hundred grounded actions and minutes for RobotHow's 7329, so the parsed problem is kept per
+  domain text and only the goal is replaced for the next record.
+* ``driver``: the Fast Downward driver shipped in ``up-fast-downward`` runs on the exported files
+  directly (same build, same ``astar(lmcut())`` search): seconds even for RobotHow.
+
+``auto`` takes unified-planning up to :data:`AUTO_DRIVER_ACTIONS` grounded actions, the driver above.
 
 Fast Downward is GPL: it is only used here, imported lazily, and only when the ``validate`` extra is
 installed (``pip install -e '.[validate]'``). Its driver writes into the working directory, so each
-call runs with a fresh temporary directory as the working directory (which makes the call
-unsuitable for threads: the working directory belongs to the process).
+call runs in a fresh temporary directory made the working directory (so do not call it from
+threads: the working directory belongs to the process).
 
 Declared mutexes (RobotHow, RobotHow-Small) prune conditions that Fast Downward does not know
 about, so every record is planned twice, with the scenario's mutexes and with ``mutexes=None``: the
@@ -18,20 +29,27 @@ mutexes is reported.
 from __future__ import annotations
 
 import contextlib
-import functools
 import logging
+import math
+import os
+import re
+import signal
+import subprocess
+import sys
 import tempfile
 import time
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, NamedTuple
 
-from hbtp.datasets import load_dataset
+from hbtp.datasets import dataset_names, load_dataset, read_dataset_file
 from hbtp.datasets.records import Record
 from hbtp.domains import Scenario, load_scenario, write_grounded
 from hbtp.domains.mutex import Mutexes
+from hbtp.domains.pddl_writer import keyword_safe_predicates
 from hbtp.errors import BackendError, InputError
 from hbtp.logic.task import Goal, GroundAction, GroundTask
 from hbtp.planning import Limits, plan
@@ -40,6 +58,20 @@ log = logging.getLogger(__name__)
 
 INSTALL_HINT = "install the validate extra: pip install -e '.[validate]'"
 ENGINE = "fast-downward-opt"
+#: The search of unified-planning's ``fast-downward-opt``, used with the driver too.
+SEARCH = "astar(lmcut())"
+#: ``auto`` runs the driver for tasks with more grounded actions than this.
+AUTO_DRIVER_ACTIONS = 1000
+Engine = Literal["auto", "unified-planning", "driver"]
+ENGINES: tuple[Engine, ...] = ("auto", "unified-planning", "driver")
+#: Seconds per planner run in a comparison: on RobotHow's record 40 both OBTEA without mutexes and
+#: Fast Downward need close to a minute.
+COMPARE_TIME_LIMIT = 300.0
+
+_COST_LINE = re.compile(r";\s*cost\s*=\s*(\d+)")
+_UNSOLVABLE_CODES = (10, 11)  # Fast Downward's exit codes: proved unsolvable by the translator, the search
+_TIMEOUT_CODES = (21, 23, 24)
+_MAX_PARSED = 2
 
 
 @dataclass(frozen=True)
@@ -48,13 +80,23 @@ class FastDownwardRun:
 
     ``status`` is ``optimal`` (``cost`` and ``plan`` set), ``unsolvable`` (proved), ``timeout`` or
     ``error`` (``message`` says why). ``plan`` holds hbtp's action names (``Walk(apple)``);
-    ``time_s`` is the whole call: export, parsing and the planner.
+    ``time_s`` is the whole call: export, parsing and the planner; ``engine`` the way it ran.
     """
 
     status: str
     cost: int | None = None
     plan: tuple[str, ...] = ()
     time_s: float = 0.0
+    engine: str = ""
+    message: str = ""
+
+
+class _Outcome(NamedTuple):
+    """What a planner said, before the plan is checked: status, action names, reported cost, message."""
+
+    status: str
+    names: tuple[str, ...] = ()
+    reported_cost: int | None = None
     message: str = ""
 
 
@@ -77,99 +119,223 @@ def _require_extra() -> None:
         raise BackendError(f"Fast Downward is not available ({error}); {INSTALL_HINT}") from None
 
 
-@functools.cache
-def _environment() -> Any:
-    """A private unified-planning environment: quiet, and lenient about shared names.
-
-    RoboWaiter has objects ``On``/``Off`` and a predicate ``On``: PDDL (and Fast Downward) keep
-    objects and predicates apart, but unified-planning refuses a shared name unless
-    ``error_used_name`` is off (its writer then renames for the planner).
-    """
-    from unified_planning.environment import Environment
-
-    environment = Environment()
-    environment.credits_stream = None
-    environment.error_used_name = False
-    return environment
+def choose_engine(task: GroundTask, engine: Engine = "auto") -> Literal["unified-planning", "driver"]:
+    """The way ``auto`` runs Fast Downward on ``task`` (other choices are returned unchanged)."""
+    if engine == "auto":
+        return "driver" if len(task.actions) > AUTO_DRIVER_ACTIONS else "unified-planning"
+    if engine in ENGINES:
+        return engine
+    raise InputError(f"unknown engine {engine!r}; choose one of: {', '.join(ENGINES)}")
 
 
-def _solve_pddl(domain_file: Path, problem_file: Path, time_limit: float) -> Any:
-    """Read the files with unified-planning and solve them with Fast Downward; the raw result."""
-    from unified_planning.io import PDDLReader
-
-    environment = _environment()
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message=r"Name .* already defined", category=UserWarning)
-        problem = PDDLReader(environment).parse_problem(str(domain_file), str(problem_file))
-        with environment.factory.OneshotPlanner(name=ENGINE) as planner:
-            return planner.solve(problem, timeout=time_limit)
-
-
-def run_fast_downward(task: GroundTask, goal: Goal, *, time_limit: float = 60.0) -> FastDownwardRun:
+def run_fast_downward(
+    task: GroundTask, goal: Goal, *, time_limit: float = 60.0, engine: Engine = "auto"
+) -> FastDownwardRun:
     """Solve ``goal`` optimally with Fast Downward; its plan is replayed in ``task`` to check it."""
     _require_extra()
+    chosen = choose_engine(task, engine)
+    by_name = _actions_by_lowercase_name(task)
     started = time.perf_counter()
     domain_text, problem_text = write_grounded(task, goal, rename_keywords=True)
     with tempfile.TemporaryDirectory(prefix="hbtp-fd-") as folder, contextlib.chdir(folder):
         domain_file, problem_file = Path(folder, "domain.pddl"), Path(folder, "problem.pddl")
         domain_file.write_text(domain_text, encoding="utf-8")
         problem_file.write_text(problem_text, encoding="utf-8")
-        try:
-            result = _solve_pddl(domain_file, problem_file, time_limit)
-        except Exception as error:  # unified-planning raises many unrelated types
-            return FastDownwardRun(
-                "error", time_s=time.perf_counter() - started, message=f"{type(error).__name__}: {error}"
-            )
-    return _interpret(result, task, goal, time.perf_counter() - started)
+        if chosen == "driver":
+            outcome = _solve_with_driver(domain_file, problem_file, time_limit)
+        else:
+            key = domain_text + problem_text.split("(:goal", 1)[0]
+            outcome = _solve_with_unified_planning(task, goal, key, problem_file, time_limit)
+    elapsed = time.perf_counter() - started
+    if outcome.status != "optimal":
+        return FastDownwardRun(outcome.status, time_s=elapsed, engine=chosen, message=outcome.message)
+    return _replay(task, goal, by_name, outcome, elapsed, chosen)
 
 
-def _interpret(result: Any, task: GroundTask, goal: Goal, elapsed: float) -> FastDownwardRun:
-    """Turn unified-planning's result into a :class:`FastDownwardRun`."""
-    from unified_planning.engines import PlanGenerationResultStatus as Status
-
-    if result.status == Status.SOLVED_OPTIMALLY:
-        names = [instance.action.name for instance in result.plan.actions]
-        return _replay(task, goal, names, elapsed)
-    if result.status == Status.UNSOLVABLE_PROVEN:
-        return FastDownwardRun("unsolvable", time_s=elapsed)
-    if result.status == Status.TIMEOUT:
-        return FastDownwardRun("timeout", time_s=elapsed, message="Fast Downward reached the time limit")
-    logs = " ".join(m.message.strip() for m in result.log_messages or () if m.message.strip())
-    return FastDownwardRun("error", time_s=elapsed, message=f"{result.status.name}: {logs[-500:]}")
-
-
-def _replay(task: GroundTask, goal: Goal, names: list[str], elapsed: float) -> FastDownwardRun:
-    """Map Fast Downward's (lowercased) action names back to ``task`` and execute the plan from s0."""
-    by_name = _actions_by_lowercase_name(task)
-    try:
-        actions = [by_name[name.lower()] for name in names]
-    except KeyError as missing:
-        return FastDownwardRun("error", time_s=elapsed, message=f"Fast Downward's plan has unknown action {missing}")
-    state, applied = task.execute(actions)
-    readable = tuple(action.name for action in actions)
-    if applied < len(actions) or not goal.ids <= state:
-        message = f"Fast Downward's plan does not reach the goal in hbtp's task: {', '.join(readable)}"
-        return FastDownwardRun("error", plan=readable, time_s=elapsed, message=message)
-    return FastDownwardRun("optimal", sum(a.cost for a in actions), readable, elapsed)
-
-
-def _actions_by_lowercase_name(task: GroundTask) -> dict[str, GroundAction]:
-    table = {action.signature.underscored.lower(): action for action in task.actions}
-    if len(table) != len(task.actions):
-        raise InputError(f"{task.name}: action names that differ only in case cannot be checked with Fast Downward")
-    return table
-
-
-def fast_downward_cost(task: GroundTask, goal: Goal, *, time_limit: float = 60.0) -> int | None:
+def fast_downward_cost(
+    task: GroundTask, goal: Goal, *, time_limit: float = 60.0, engine: Engine = "auto"
+) -> int | None:
     """Fast Downward's optimal cost of ``goal`` in ``task``; ``None`` when it proves the goal unsolvable.
 
     Raises :class:`~hbtp.errors.BackendError` when the ``validate`` extra is missing, on a timeout
     and on any other failure.
     """
-    run = run_fast_downward(task, goal, time_limit=time_limit)
+    run = run_fast_downward(task, goal, time_limit=time_limit, engine=engine)
     if run.status in ("optimal", "unsolvable"):
         return run.cost
     raise BackendError(f"Fast Downward failed ({run.status}): {run.message}")
+
+
+def _replay(
+    task: GroundTask,
+    goal: Goal,
+    by_name: dict[str, GroundAction],
+    outcome: _Outcome,
+    elapsed: float,
+    engine: str,
+) -> FastDownwardRun:
+    """Map the planner's (lowercased) action names back to ``task`` and execute the plan from s0."""
+    try:
+        actions = [by_name[name.lower()] for name in outcome.names]
+    except KeyError as missing:
+        message = f"Fast Downward's plan has an unknown action {missing}"
+        return FastDownwardRun("error", time_s=elapsed, engine=engine, message=message)
+    readable = tuple(action.name for action in actions)
+    state, applied = task.execute(actions)
+    cost = sum(action.cost for action in actions)
+    problem = ""
+    if applied < len(actions) or not goal.ids <= state:
+        problem = "Fast Downward's plan does not reach the goal in hbtp's task"
+    elif outcome.reported_cost is not None and outcome.reported_cost != cost:
+        problem = f"Fast Downward reports cost {outcome.reported_cost}, its plan costs {cost} in hbtp's task"
+    if problem:
+        return FastDownwardRun("error", plan=readable, time_s=elapsed, engine=engine, message=problem)
+    return FastDownwardRun("optimal", cost, readable, elapsed, engine)
+
+
+def _actions_by_lowercase_name(task: GroundTask) -> dict[str, GroundAction]:
+    """Actions by lowercased PDDL name; refuses names Fast Downward's lowercasing would merge."""
+    _check_case(task.name, "action", (action.signature.underscored for action in task.actions))
+    _check_case(task.name, "object", (*task.constants, *task.objects))
+    _check_case(task.name, "predicate", {atom.predicate for atom in task.atoms})
+    return {action.signature.underscored.lower(): action for action in task.actions}
+
+
+def _check_case(task_name: str, kind: str, names: Iterable[str]) -> None:
+    seen: dict[str, str] = {}
+    for name in names:
+        other = seen.setdefault(name.lower(), name)
+        if other != name:
+            raise InputError(
+                f"{task_name}: {kind}s {other!r} and {name!r} differ only in case; Fast Downward merges them"
+            )
+
+
+# ----------------------------------------------------------------- driver
+def _driver_script() -> Path:
+    return Path(str(resources.files("up_fast_downward") / "downward" / "fast-downward.py"))
+
+
+def _solve_with_driver(domain_file: Path, problem_file: Path, time_limit: float) -> _Outcome:
+    """Run Fast Downward's driver (A* with LM-cut) on the files, in the current (temporary) directory."""
+    plan_file = domain_file.with_name("plan.txt")
+    command = [
+        sys.executable,
+        str(_driver_script()),
+        "--plan-file",
+        str(plan_file),
+        "--overall-time-limit",
+        f"{max(1, math.ceil(time_limit))}s",
+        str(domain_file),
+        str(problem_file),
+        "--search",
+        SEARCH,
+    ]
+    process = subprocess.Popen(
+        command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+    )
+    try:
+        output, errors = process.communicate(timeout=time_limit + 30)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)  # the driver's own process group: translator and search
+        process.communicate()
+        return _Outcome("timeout", message="Fast Downward did not stop at its time limit")
+    return _driver_outcome(process.returncode, plan_file, output, errors)
+
+
+def _driver_outcome(code: int, plan_file: Path, output: str, errors: str) -> _Outcome:
+    if code == 0 and plan_file.is_file():
+        return _read_plan_file(plan_file)
+    if code in _UNSOLVABLE_CODES:
+        return _Outcome("unsolvable")
+    if code in _TIMEOUT_CODES:
+        return _Outcome("timeout", message="Fast Downward reached the time limit")
+    tail = " ".join((errors or output).split())[-500:]
+    return _Outcome("error", message=f"Fast Downward's driver exited with code {code}: {tail}")
+
+
+def _read_plan_file(plan_file: Path) -> _Outcome:
+    """``(walk_apple)`` lines and a ``; cost = 12 (general cost)`` line."""
+    names: list[str] = []
+    cost: int | None = None
+    for line in plan_file.read_text(encoding="utf-8").splitlines():
+        line = line.strip()
+        if line.startswith(";"):
+            found = _COST_LINE.match(line)
+            cost = int(found.group(1)) if found else cost
+        elif line:
+            names.append(line.strip("()").split()[0])
+    return _Outcome("optimal", tuple(names), cost)
+
+
+# ------------------------------------------------------- unified-planning
+_parsed: dict[str, Any] = {}
+
+
+@contextlib.contextmanager
+def _up_environment() -> Iterator[Any]:
+    """unified-planning's global environment, quiet and lenient about shared names, for one call.
+
+    RoboWaiter has objects ``On``/``Off`` and a predicate ``On``: PDDL keeps objects and predicates
+    apart, but unified-planning refuses a shared name unless ``error_used_name`` is off (a private
+    environment does not work: the Fast Downward engine builds expressions in the global one).
+    """
+    from unified_planning.shortcuts import get_environment
+
+    environment = get_environment()
+    saved = environment.credits_stream, environment.error_used_name
+    environment.credits_stream, environment.error_used_name = None, False
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=r"Name .* already defined", category=UserWarning)
+            yield environment
+    finally:
+        environment.credits_stream, environment.error_used_name = saved
+
+
+def _solve_with_unified_planning(
+    task: GroundTask, goal: Goal, key: str, problem_file: Path, time_limit: float
+) -> _Outcome:
+    """Read the files with unified-planning (once per ``key``: the text but the goal) and run ``fast-downward-opt``."""
+    from unified_planning.engines import PlanGenerationResultStatus as Status
+
+    try:
+        with _up_environment() as environment:
+            problem = _problem_for_goal(task, goal, key, problem_file)
+            with environment.factory.OneshotPlanner(name=ENGINE) as planner:
+                result = planner.solve(problem, timeout=time_limit)
+    except Exception as error:  # unified-planning raises many unrelated types
+        return _Outcome("error", message=f"unified-planning: {type(error).__name__}: {error}")
+    if result.status == Status.SOLVED_OPTIMALLY:
+        return _Outcome("optimal", tuple(instance.action.name for instance in result.plan.actions))
+    if result.status == Status.UNSOLVABLE_PROVEN:
+        return _Outcome("unsolvable")
+    if result.status == Status.TIMEOUT:
+        return _Outcome("timeout", message="Fast Downward reached the time limit")
+    logs = " ".join(" ".join(m.message.split()) for m in result.log_messages or ())
+    return _Outcome("error", message=f"{result.status.name}: {logs[-500:]}")
+
+
+def _problem_for_goal(task: GroundTask, goal: Goal, key: str, problem_file: Path) -> Any:
+    """The parsed problem with ``goal``: read from the files the first time, else a copy with a new goal."""
+    from unified_planning.io import PDDLReader
+
+    cached = _parsed.get(key)
+    if cached is None:
+        parsed = PDDLReader().parse_problem(str(problem_file.with_name("domain.pddl")), str(problem_file))
+        while len(_parsed) >= _MAX_PARSED:
+            del _parsed[next(iter(_parsed))]
+        _parsed[key] = parsed
+        return parsed.clone()
+    problem = cached.clone()
+    problem.clear_goals()
+    fluents = {fluent.name.lower(): fluent for fluent in problem.fluents}
+    objects = {obj.name.lower(): obj for obj in problem.all_objects}
+    rename = keyword_safe_predicates({atom.predicate for atom in (*task.atoms, *goal.atoms)})
+    for atom in goal.atoms:
+        fluent = fluents[rename.get(atom.predicate, atom.predicate).lower()]
+        problem.add_goal(fluent(*(objects[arg.lower()] for arg in atom.args)))
+    return problem
 
 
 # ------------------------------------------------------------- comparison
@@ -188,7 +354,9 @@ def _decided(status: str) -> bool:
     return status in ("solved", "optimal", "unsolvable")
 
 
-def compare_record(scenario: Scenario, record: Record, *, time_limit: float = 60.0) -> dict[str, Any]:
+def compare_record(
+    scenario: Scenario, record: Record, *, time_limit: float = COMPARE_TIME_LIMIT, engine: Engine = "auto"
+) -> dict[str, Any]:
     """Compare OBTEA (with the scenario's mutexes and without) and Fast Downward on one record.
 
     ``match`` is true when both decided and OBTEA without mutexes costs exactly what Fast Downward
@@ -200,8 +368,7 @@ def compare_record(scenario: Scenario, record: Record, *, time_limit: float = 60
     goal = task.resolve_goal(record.goal)
     pruned = run_obtea(task, goal, scenario.mutexes, time_limit)
     plain = run_obtea(task, goal, None, time_limit)
-    fd = run_fast_downward(task, goal, time_limit=time_limit)
-    decided = _decided(plain.status) and _decided(fd.status)
+    fd = run_fast_downward(task, goal, time_limit=time_limit, engine=engine)
     row: dict[str, Any] = {
         "scenario": scenario.name,
         "record": record.id,
@@ -215,8 +382,9 @@ def compare_record(scenario: Scenario, record: Record, *, time_limit: float = 60
         "fd_cost": fd.cost,
         "fd_status": fd.status,
         "fd_time_s": round(fd.time_s, 4),
+        "fd_engine": fd.engine,
         "fd_plan": list(fd.plan),
-        "match": decided and plain.cost == fd.cost,
+        "match": _decided(plain.status) and _decided(fd.status) and plain.cost == fd.cost,
         "declared_mutexes": has_declared_mutexes(scenario.mutexes),
         "mutexes_change_optimum": _decided(pruned.status) and _decided(plain.status) and pruned.cost != plain.cost,
     }
@@ -226,32 +394,56 @@ def compare_record(scenario: Scenario, record: Record, *, time_limit: float = 60
 
 
 def iter_comparisons(
-    scenario_name: str, dataset_name: str | None = None, *, time_limit: float = 60.0, limit: int | None = None
+    scenario_name: str,
+    dataset_name: str | None = None,
+    *,
+    time_limit: float = COMPARE_TIME_LIMIT,
+    limit: int | None = None,
+    engine: Engine = "auto",
 ) -> Iterator[dict[str, Any]]:
-    """Compare every record of ``dataset_name`` (default: the scenario's Table II test set), one row each."""
+    """Compare every record of ``dataset_name`` (a shipped dataset or a file; default: the scenario's
+    Table II test set), one row each."""
     _require_extra()
     scenario = load_scenario(scenario_name)
+    choose_engine(scenario.task, engine)  # an unknown engine fails before any work
     name = dataset_name or scenario.test_set
     if name is None:
         raise InputError(f"scenario {scenario_name!r} has no test set: give a dataset")
-    records = load_dataset(name)
-    for record in records[:limit] if limit is not None else records:
-        row = compare_record(scenario, record, time_limit=time_limit)
+    records = _records(name)
+    for record in records if limit is None else records[:limit]:
+        row = compare_record(scenario, record, time_limit=time_limit, engine=engine)
         log.info("%s record %s: OBTEA %s, FD %s", scenario.name, record.id, row["obtea_unpruned_cost"], row["fd_cost"])
         yield row
 
 
+def _records(source: str) -> list[Record]:
+    """A shipped dataset by name, or a dataset file (reference text format or JSONL)."""
+    if source in dataset_names() or not Path(source).is_file():
+        return load_dataset(source)  # an unknown name fails here, naming the choices
+    return read_dataset_file(source)
+
+
 def compare_optimal(
-    scenario_name: str, dataset_name: str | None = None, *, time_limit: float = 60.0, limit: int | None = None
+    scenario_name: str,
+    dataset_name: str | None = None,
+    *,
+    time_limit: float = COMPARE_TIME_LIMIT,
+    limit: int | None = None,
+    engine: Engine = "auto",
 ) -> list[dict[str, Any]]:
     """Rows of :func:`compare_record` for the first ``limit`` records (all by default) of a dataset."""
-    return list(iter_comparisons(scenario_name, dataset_name, time_limit=time_limit, limit=limit))
+    return list(iter_comparisons(scenario_name, dataset_name, time_limit=time_limit, limit=limit, engine=engine))
 
 
 __all__ = [
+    "AUTO_DRIVER_ACTIONS",
+    "COMPARE_TIME_LIMIT",
+    "ENGINES",
     "INSTALL_HINT",
+    "Engine",
     "FastDownwardRun",
     "ObteaRun",
+    "choose_engine",
     "compare_optimal",
     "compare_record",
     "fast_downward_cost",

@@ -21,6 +21,7 @@ from hbtp.cli.export_command import export_command
 from hbtp.cli.plan_command import plan_command
 from hbtp.cli.robustness_command import robustness
 from hbtp.cli.run_command import run_command, verify_command
+from hbtp.cli.validate_command import validate_optimal
 from hbtp.errors import HbtpError, PlanningError
 
 EXIT_OK, EXIT_NOT_SOLVED, EXIT_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
@@ -46,6 +47,7 @@ cli.add_command(export_command)
 cli.add_command(run_command)
 cli.add_command(verify_command)
 bench.add_command(robustness)
+cli.add_command(validate_optimal)
 
 
 def main(argv: list[str] | None = None) -> int:

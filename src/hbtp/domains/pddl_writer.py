@@ -161,7 +161,7 @@ def _ground_atom(atom: Atom, rename: dict[str, str] | None = None) -> str:
 
 
 def write_grounded(
-    task: GroundTask, goal: Goal, domain_name: str | None = None, *, rename_keywords: bool = False
+    task: GroundTask, goal: Goal, domain_name: str | None = None, *, rename_keywords: bool = True
 ) -> tuple[str, str]:
     """A grounded task as a STRIPS + ``:action-costs`` domain and problem (one action per ground action).
 

@@ -1,0 +1,161 @@
+"""``hbtp validate-optimal``: OBTEA's D(T) against Fast Downward's optimal cost (the ``validate`` extra)."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable, Iterator
+from contextlib import ExitStack
+from pathlib import Path
+from typing import IO, Any, cast
+
+import click
+
+from hbtp.cli.options import echo_json
+from hbtp.datasets import DATASET_SCENARIO
+from hbtp.domains import scenario_names
+from hbtp.errors import InputError
+from hbtp.validation import COMPARE_TIME_LIMIT, ENGINES, Engine, iter_comparisons
+
+
+def _plan_runs(scenarios: tuple[str, ...], dataset: str | None) -> list[tuple[str, str | None]]:
+    """(scenario, dataset) pairs: every chosen scenario with its test set, or the one dataset given."""
+    if dataset is None:
+        return [(name, None) for name in scenarios or scenario_names()]
+    if len(scenarios) > 1:
+        raise InputError("--dataset goes with one --scenario")
+    scenario = scenarios[0] if scenarios else DATASET_SCENARIO.get(dataset)
+    if scenario is None:
+        raise InputError(f"give --scenario for the dataset {dataset!r}")
+    return [(scenario, dataset)]
+
+
+def _cost(value: int | None, status: str) -> str:
+    return str(value) if value is not None else status
+
+
+def _line(row: dict[str, Any]) -> str:
+    """One record: ``robothow-small 3 OBTEA 82 (unpruned 82) FD 82 match 0.4 ms / 0.34 s``."""
+    verdict = "match" if row["match"] else "MISMATCH"
+    note = "  declared mutexes change the optimum" if row["mutexes_change_optimum"] else ""
+    return (
+        f"{row['scenario']:15} {row['record']:>4}  "
+        f"OBTEA {_cost(row['obtea_cost'], row['obtea_status']):>8} "
+        f"(unpruned {_cost(row['obtea_unpruned_cost'], row['obtea_unpruned_status'])})  "
+        f"FD {_cost(row['fd_cost'], row['fd_status']):>8}  {verdict:8}  "
+        f"time OBTEA {row['obtea_time_s'] * 1000:.1f} ms (unpruned {row['obtea_unpruned_time_s'] * 1000:.1f} ms) "
+        f"FD {row['fd_time_s']:.2f} s  {row['goal']}{note}"
+        + (f"\n    {row['fd_message']}" if "fd_message" in row and not row["match"] else "")
+    )
+
+
+def _decided(row: dict[str, Any]) -> bool:
+    """Both OBTEA without mutexes and Fast Downward ended with an answer (a cost or a proof)."""
+    return row["obtea_unpruned_status"] in ("solved", "unsolvable") and row["fd_status"] in ("optimal", "unsolvable")
+
+
+def summarize(rows: Iterable[dict[str, Any]]) -> dict[str, Any]:
+    """Counts and mean times of comparison rows."""
+    rows = list(rows)
+    count = len(rows) or 1
+    return {
+        "records": len(rows),
+        "matches": sum(1 for r in rows if r["match"]),
+        "mismatches": sum(1 for r in rows if not r["match"]),
+        "undecided": sum(1 for r in rows if not _decided(r)),
+        "mutexes_change_optimum": [f"{r['scenario']}:{r['record']}" for r in rows if r["mutexes_change_optimum"]],
+        "obtea_mean_time_s": round(sum(r["obtea_time_s"] for r in rows) / count, 4),
+        "obtea_unpruned_mean_time_s": round(sum(r["obtea_unpruned_time_s"] for r in rows) / count, 4),
+        "fd_mean_time_s": round(sum(r["fd_time_s"] for r in rows) / count, 4),
+    }
+
+
+def _summary_line(label: str, summary: dict[str, Any]) -> str:
+    changed = summary["mutexes_change_optimum"]
+    return (
+        f"{label}: {summary['records']} records, {summary['matches']} matches, {summary['mismatches']} mismatches"
+        f" ({summary['undecided']} undecided: a time limit or an error);"
+        f" mean time OBTEA {summary['obtea_mean_time_s'] * 1000:.1f} ms"
+        f" (unpruned {summary['obtea_unpruned_mean_time_s'] * 1000:.1f} ms), FD {summary['fd_mean_time_s']:.2f} s; "
+        f"declared mutexes change the optimum on {len(changed)}" + (f" ({', '.join(changed)})" if changed else "")
+    )
+
+
+def _open_out(path: Path) -> IO[str]:
+    """The JSONL file, opened for writing (rows are written as they come, so a long run keeps its rows)."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return path.open("w", encoding="utf-8")
+    except OSError as error:
+        raise InputError(f"cannot write {path}: {error.strerror}") from None
+
+
+def _rows(
+    runs: list[tuple[str, str | None]], time_limit: float, limit: int | None, engine: Engine
+) -> Iterator[dict[str, Any]]:
+    for scenario, dataset in runs:
+        yield from iter_comparisons(scenario, dataset, time_limit=time_limit, limit=limit, engine=engine)
+
+
+@click.command("validate-optimal")
+@click.option(
+    "-s",
+    "--scenario",
+    "scenarios",
+    multiple=True,
+    type=click.Choice(list(scenario_names())),
+    help="Scenario to check (repeatable; default: all four).",
+)
+@click.option("--dataset", help="A shipped dataset or a dataset file (default: each scenario's Table II test set).")
+@click.option(
+    "-t", "--time-limit", type=float, default=COMPARE_TIME_LIMIT, show_default=True, help="Seconds per planner run."
+)
+@click.option("-n", "--limit", type=click.IntRange(min=1), help="Only the first N records of each dataset.")
+@click.option(
+    "--engine",
+    type=click.Choice(list(ENGINES)),
+    default="auto",
+    show_default=True,
+    help="Run Fast Downward through unified-planning, its driver directly, or auto (the driver for big tasks).",
+)
+@click.option("-o", "--out", "out_file", type=click.Path(dir_okay=False), help="Write the rows as JSONL.")
+@click.option("--json", "as_json", is_flag=True, help="Print rows and summary as one JSON document.")
+def validate_optimal(
+    scenarios: tuple[str, ...],
+    dataset: str | None,
+    time_limit: float,
+    limit: int | None,
+    engine: str,
+    out_file: str | None,
+    as_json: bool,
+) -> int:
+    """Check that OBTEA's D(T) equals Fast Downward's optimal cost on every record.
+
+    Needs the validate extra (pip install -e '.[validate]'). OBTEA runs with the scenario's mutexes
+    and without: the cost without must equal Fast Downward's exactly; records whose optimum the
+    declared mutexes change are listed. Exit code 1 when some record does not match.
+    """
+    runs = _plan_runs(scenarios, dataset)
+    rows: list[dict[str, Any]] = []
+    with ExitStack() as stack:
+        out: IO[str] | None = None
+        if out_file:
+            out = stack.enter_context(_open_out(Path(out_file)))
+        for row in _rows(runs, time_limit, limit, cast(Engine, engine)):
+            rows.append(row)
+            if out is not None:
+                out.write(json.dumps(row, ensure_ascii=False) + "\n")
+                out.flush()
+            if not as_json:
+                click.echo(_line(row))
+    summary = summarize(rows)
+    if as_json:
+        echo_json({"summary": summary, "rows": rows})
+    else:
+        for scenario in dict.fromkeys(r["scenario"] for r in rows):
+            click.echo(_summary_line(scenario, summarize(r for r in rows if r["scenario"] == scenario)))
+        if len(runs) > 1:
+            click.echo(_summary_line("all", summary))
+    return 0 if summary["mismatches"] == 0 else 1
+
+
+__all__ = ["summarize", "validate_optimal"]
