@@ -15,8 +15,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from hbtp.bt import Node, NodeStatus, tick
+from hbtp.bt import Condition, Fallback, Node, NodeStatus, tick
 from hbtp.bt.btcpp import used_node_ids
+from hbtp.bt.verify import verify
 from hbtp.domains import DomainBuilder
 from hbtp.logic.task import Goal, GroundTask
 
@@ -117,8 +118,27 @@ class TickRun:
     state: frozenset[int]
 
 
-def run_tree(tree: Node, task: GroundTask, state: frozenset[int], max_ticks: int) -> TickRun:
-    """Tick ``tree`` from ``state``, applying the RUNNING action each time, until SUCCESS or FAILURE."""
+_VERIFIED: dict[int, Node] = {}
+
+
+def assert_verified(tree: Node, task: GroundTask) -> None:
+    """The static verifier accepts a planned tree (Fallback(goal, ...)) and proves it reaches its goal."""
+    if _VERIFIED.get(id(tree)) is tree or not (isinstance(tree, Fallback) and isinstance(tree.children[0], Condition)):
+        return
+    check = verify(tree, task, tree.children[0].literals)
+    assert check.ok, check.summary()
+    assert check.proved_goal_reaching, check.summary()
+    _VERIFIED[id(tree)] = tree
+
+
+def run_tree(tree: Node, task: GroundTask, state: frozenset[int], max_ticks: int, *, planned: bool = True) -> TickRun:
+    """Tick ``tree`` from ``state``, applying the RUNNING action each time, until SUCCESS or FAILURE.
+
+    A planned tree is first checked by the static verifier (every planned tree the suite runs is
+    verified); ``planned=False`` for the random trees of the simulator tests, which prove nothing.
+    """
+    if planned:
+        assert_verified(tree, task)
     actions: list[int] = []
     cost = 0
     for _ in range(max_ticks):
