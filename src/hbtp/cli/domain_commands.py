@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from hbtp.cli.options import echo_json, load_selected, scenario_options, write_files_atomically
+from hbtp.cli.options import ScenarioSource, echo_json, scenario_options, write_files_atomically
 from hbtp.domains import load_scenario, scenario_names, write_domain, write_grounded, write_problem
 from hbtp.domains.lifted import And, AtomFormula
 from hbtp.domains.pddl_reader import read_domain_file, read_problem_file
@@ -34,16 +34,12 @@ def scenarios(as_json: bool) -> int:
 @click.option("--names", is_flag=True, help="Print one grounded action name per line (Walk(apple)).")
 @click.option("--json", "as_json", is_flag=True, help="Print every grounded action with pre/add/del/cost.")
 def ground(
-    scenario: str | None,
-    pddl: tuple[str, str] | None,
-    object_categories: tuple[str, ...],
-    keep_fluent: tuple[str, ...],
-    mutex_file: str | None,
+    source: ScenarioSource,
     names: bool,
     as_json: bool,
 ) -> int:
     """Ground a scenario or your PDDL files and show the result."""
-    loaded = load_selected(scenario, pddl, object_categories, keep_fluent, mutex_file)
+    loaded = source.load()
     task = loaded.task
     if names:
         click.echo("\n".join(a.name for a in task.actions))
@@ -81,17 +77,13 @@ def ground(
     "--lifted", is_flag=True, help="Write the lifted domain and problem instead of the grounded STRIPS encoding."
 )
 def export_pddl(
-    scenario: str | None,
-    pddl: tuple[str, str] | None,
-    object_categories: tuple[str, ...],
-    keep_fluent: tuple[str, ...],
-    mutex_file: str | None,
+    source: ScenarioSource,
     goal: str,
     out_dir: str,
     lifted: bool,
 ) -> int:
     """Write domain.pddl and problem.pddl for a goal (Fast Downward accepts the grounded encoding)."""
-    loaded = load_selected(scenario, pddl, object_categories, keep_fluent, mutex_file)
+    loaded = source.load()
     resolved = loaded.task.resolve_goal(goal)
     out = Path(out_dir)
     if lifted:

@@ -14,8 +14,7 @@ from typing import Any, TypeVar
 import click
 
 from hbtp.bt.export import FORMATS, export_tree, format_from_extension, read_tree, write_export
-from hbtp.cli.options import load_selected, scenario_options
-from hbtp.domains import scenario_names
+from hbtp.cli.options import ScenarioSource, scenario_options
 from hbtp.errors import InputError
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -62,11 +61,7 @@ def _document_metadata(path: str) -> dict[str, Any]:
 )
 def export_command(
     tree_file: str,
-    scenario: str | None,
-    pddl: tuple[str, str] | None,
-    object_categories: tuple[str, ...],
-    keep_fluent: tuple[str, ...],
-    mutex_file: str | None,
+    source: ScenarioSource,
     fmt: str | None,
     out_file: str | None,
 ) -> int:
@@ -82,9 +77,7 @@ def export_command(
         raise InputError(f"{chosen} is a binary format: give --out FILE")
     metadata = _document_metadata(tree_file)
     recorded = metadata.get("scenario")
-    if scenario is None and pddl is None and isinstance(recorded, str) and recorded in scenario_names():
-        scenario = recorded
-    loaded = load_selected(scenario, pddl, object_categories, keep_fluent, mutex_file)
+    loaded = source.load(default=recorded if isinstance(recorded, str) else None)
     tree = read_tree(tree_file, loaded.task)
     goal = metadata.get("goal") if isinstance(metadata.get("goal"), str) else ""
     if out_file is None:

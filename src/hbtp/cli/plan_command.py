@@ -11,7 +11,7 @@ from hbtp.bt import render_text, size, tree_of
 from hbtp.bt.compact import compact
 from hbtp.bt.jsonio import tree_to_json
 from hbtp.cli.export_command import export_options, write_export
-from hbtp.cli.options import echo_json, load_selected, scenario_options, write_files_atomically
+from hbtp.cli.options import ScenarioSource, echo_json, scenario_options, write_files_atomically
 from hbtp.datasets import read_dataset_file
 from hbtp.datasets.records import Record
 from hbtp.domains import Scenario
@@ -122,11 +122,7 @@ def _goal_ids(loaded: Scenario, record: Record) -> frozenset[int] | None:
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--record", type=click.Path(dir_okay=False), help="Record every LLM exchange to this JSONL file.")
 def plan_command(
-    scenario: str | None,
-    pddl: tuple[str, str] | None,
-    object_categories: tuple[str, ...],
-    keep_fluent: tuple[str, ...],
-    mutex_file: str | None,
+    source: ScenarioSource,
     goal: str,
     planner: str,
     hints_source: str,
@@ -164,7 +160,7 @@ def plan_command(
 ) -> int:
     """Plan a behavior tree that reaches GOAL; exit code 0 when solved, 1 when not."""
     limits = Limits(time_s=time_limit, max_expansions=max_expansions, memory_mb=memory_mb)
-    loaded = load_selected(scenario, pddl, object_categories, keep_fluent, mutex_file)
+    loaded = source.load()
     task = loaded.task
     resolved = task.resolve_goal(goal)
     loop = None

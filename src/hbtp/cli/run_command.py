@@ -21,7 +21,7 @@ from hbtp.bt.jsonio import tree_from_json
 from hbtp.bt.nodes import Node
 from hbtp.bt.simulate import DEFAULT_MAX_TICKS, Run, simulate, trace_to_jsonl
 from hbtp.bt.verify import verify
-from hbtp.cli.options import echo_json, load_selected, scenario_options, write_files_atomically
+from hbtp.cli.options import ScenarioSource, echo_json, scenario_options, write_files_atomically
 from hbtp.domains import Scenario
 from hbtp.errors import HbtpError, InputError
 from hbtp.logic.task import Goal
@@ -101,11 +101,7 @@ def _number(value: Any, sign: bool = False) -> str:
 @exit_codes
 def run_command(
     tree_file: str,
-    scenario: str | None,
-    pddl: tuple[str, str] | None,
-    object_categories: tuple[str, ...],
-    keep_fluent: tuple[str, ...],
-    mutex_file: str | None,
+    source: ScenarioSource,
     goal_text: str | None,
     perturb: float,
     runs: int,
@@ -127,7 +123,7 @@ def run_command(
         raise click.BadParameter("must be at least 1", param_hint="--runs")
     if max_ticks < 1:
         raise click.BadParameter("must be at least 1", param_hint="--max-ticks")
-    loaded = load_selected(scenario, pddl, object_categories, keep_fluent, mutex_file)
+    loaded = source.load()
     task = loaded.task
     tree, goal = load_tree(tree_file, loaded, goal_text)
     goal_ids = goal.ids if goal is not None else frozenset()
@@ -187,11 +183,7 @@ def run_command(
 @exit_codes
 def verify_command(
     tree_file: str,
-    scenario: str | None,
-    pddl: tuple[str, str] | None,
-    object_categories: tuple[str, ...],
-    keep_fluent: tuple[str, ...],
-    mutex_file: str | None,
+    source: ScenarioSource,
     goal_text: str | None,
     as_json: bool,
 ) -> int:
@@ -200,7 +192,7 @@ def verify_command(
     Exit code 0 when no problem is found, 1 when one is (the first node at fault is named), 2 on
     bad input.
     """
-    loaded = load_selected(scenario, pddl, object_categories, keep_fluent, mutex_file)
+    loaded = source.load()
     tree, goal = load_tree(tree_file, loaded, goal_text)
     if goal is None:
         raise InputError(f"{tree_file}: the tree file states no goal; give one with --goal")
