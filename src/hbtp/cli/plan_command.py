@@ -22,7 +22,7 @@ from hbtp.llm.pool import example_pool
 from hbtp.llm.prompt import PromptOptions
 from hbtp.logic.task import Goal
 from hbtp.pipeline import LoopOptions, LoopResult, run_hbtp
-from hbtp.planning import PLANNERS, Hints, Limits, hints_from_names, plan
+from hbtp.planning import PLANNER_DESCRIPTIONS, PLANNERS, Hints, Limits, hints_from_names, plan
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
 from hbtp.planning.oracle import oracle_hints
 from hbtp.planning.result import PlanResult
@@ -74,7 +74,14 @@ def _goal_ids(loaded: Scenario, record: Record) -> frozenset[int] | None:
 @click.command("plan")
 @scenario_options
 @click.option("-g", "--goal", required=True, help='Goal, e.g. "IsIn_milk_fridge & IsClose_fridge".')
-@click.option("-p", "--planner", type=click.Choice(list(PLANNERS)), default="hbtp-s", show_default=True)
+@click.option(
+    "-p",
+    "--planner",
+    type=click.Choice(list(PLANNERS)),
+    default="hbtp-s",
+    show_default=True,
+    help="; ".join(f"{name}: {text}" for name, text in PLANNER_DESCRIPTIONS.items()),
+)
 @click.option(
     "--hints", "hints_source", default="none", show_default=True, help="none, oracle, or a record/LLM-reply file."
 )

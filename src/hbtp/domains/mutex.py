@@ -89,6 +89,7 @@ class Mutexes:
         return None
 
     def pairs(self) -> int:
+        """How many pairs of literals are mutually exclusive."""
         return sum(len(p) for p in self.partners) // 2
 
     def proved_only(self) -> Mutexes:

@@ -260,8 +260,3 @@ def build_heuristic(
                 if value < share[atom]:
                     share[atom] = value
     return LandmarkSum(analysis.landmarks, share, task.initial_state, analysis.hmax if plain else None)
-
-
-def hmax(table: Sequence[float], condition: Iterable[int]) -> float:
-    """h_max of a condition: its most expensive literal (0 for the empty condition)."""
-    return max((table[a] for a in condition), default=0.0)
