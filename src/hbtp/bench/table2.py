@@ -26,6 +26,7 @@ from hbtp.domains.scenarios import Scenario
 from hbtp.llm.backend import Backend
 from hbtp.llm.pool import example_pool
 from hbtp.pipeline import LoopOptions, run_hbtp
+from hbtp.pipeline.loop import feedback_rounds_of
 
 log = logging.getLogger(__name__)
 
@@ -68,7 +69,7 @@ class Table2Config:
 
 def _row(scenario: Scenario, record: Record, backend_name: str, run: int, loop: Any) -> dict[str, Any]:
     rounds = loop.rounds
-    success = rounds[-1] if loop.outcome in ("NF", "1F", "2F", "3F") else None
+    success = rounds[-1] if feedback_rounds_of(loop.outcome) is not None else None
     return {
         "scenario": scenario.name,
         "task": record.id,
@@ -128,10 +129,17 @@ def run_table2(
 
 
 def summarise(rows: Sequence[dict[str, Any]], scenario: Scenario, dataset: str, config: Table2Config) -> dict[str, Any]:
-    def rate(outcomes: set[str]) -> float | None:
-        return round(100.0 * sum(r["outcome"] in outcomes for r in rows) / len(rows), 2) if rows else None
+    def within(rounds: int | None) -> float | None:
+        """Success rate with at most ``rounds`` feedback rounds (``None``: also the fallback)."""
+        if not rows:
+            return None
+        hits = 0
+        for row in rows:
+            needed = feedback_rounds_of(row["outcome"])
+            hits += (needed is not None and needed <= rounds) if rounds is not None else row["solved"]
+        return round(100.0 * hits / len(rows), 2)
 
-    successful = [r for r in rows if r["outcome"] in ("NF", "1F", "2F", "3F")]
+    successful = [r for r in rows if feedback_rounds_of(r["outcome"]) is not None]
     return {
         "scenario": scenario.name,
         "dataset": dataset,
@@ -143,12 +151,12 @@ def summarise(rows: Sequence[dict[str, Any]], scenario: Scenario, dataset: str, 
             "Q": len(scenario.task.action_predicates),
             "O": len(scenario.task.objects),
         },
-        "NF": rate({"NF"}),
-        "1F": rate({"NF", "1F"}),
-        "2F": rate({"NF", "1F", "2F"}),
-        "3F": rate({"NF", "1F", "2F", "3F"}),
-        "final": rate({"NF", "1F", "2F", "3F", "fallback"}),
-        "fallback": rate({"fallback"}),
+        "NF": within(0),
+        "1F": within(1),
+        "2F": within(2),
+        "3F": within(3),
+        "final": within(None),
+        "fallback": round(100.0 * sum(r["outcome"] == "fallback" for r in rows) / len(rows), 2) if rows else None,
         "A_minus": mean([r["action_space"] for r in successful]),
         "p_hat": mean([r["p_hat"] for r in successful]),
         "explored": mean([r["explored"] for r in successful]),

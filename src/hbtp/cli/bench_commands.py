@@ -84,6 +84,8 @@ def table1(
 )
 @click.option("--model")
 @click.option("--base-url")
+@click.option("--api-key", help="API key (default $OPENAI_API_KEY; never stored).")
+@click.option("--llm-timeout", type=float, default=60.0, show_default=True, help="Seconds per LLM request.")
 @click.option("--model-path")
 @click.option("--threads", type=int)
 @click.option("--planner", type=click.Choice(list(PLANNERS)), default="hbtp-s", show_default=True)
@@ -102,6 +104,8 @@ def table2(
     hints_from: str | None,
     model: str | None,
     base_url: str | None,
+    api_key: str | None,
+    llm_timeout: float,
     model_path: str | None,
     threads: int | None,
     planner: str,
@@ -132,8 +136,8 @@ def table2(
 
     def backend_for(scenario: Scenario, run: int) -> Backend:
         options = BackendOptions(
-            model=model, base_url=base_url, model_path=model_path, threads=threads,
-            drop=noise_drop, insert=noise_insert, seed=run,
+            model=model, base_url=base_url, api_key=api_key, timeout=llm_timeout,
+            model_path=model_path, threads=threads, drop=noise_drop, insert=noise_insert, seed=run,
         )  # fmt: skip
         inner = make_backend(llm_spec, scenario, options) if llm_spec else None
         if records is not None:

@@ -13,11 +13,12 @@ from dataclasses import dataclass
 from hbtp.errors import InputError
 from hbtp.llm.parse import ParsedReply
 from hbtp.llm.vocabulary import vocabulary_of
-from hbtp.logic.atoms import parse_atom
+from hbtp.logic.atoms import Atom, parse_atom
 from hbtp.logic.task import GroundTask
 from hbtp.planning.hints import Hints
 
 CUTOFF = 0.85
+AMBIGUITY = 0.15
 
 
 @dataclass(frozen=True)
@@ -52,44 +53,75 @@ class _Matcher:
         for name in names:
             self.folded.setdefault(name.lower(), []).append(name)
         self.ordered = sorted(names)
+        self.memo: dict[str, str | None] = {}
 
     def match(self, name: str) -> str | None:
+        if name not in self.memo:
+            self.memo[name] = self._match(name)
+        return self.memo[name]
+
+    def _match(self, name: str) -> str | None:
         if name in self.names:
             return name
         folded = self.folded.get(name.lower())
         if folded is not None and len(folded) == 1:
             return folded[0]
-        close = difflib.get_close_matches(name, self.ordered, n=2, cutoff=CUTOFF)
+        # A runner-up anywhere near the cutoff makes the best match ambiguous (pea: pear 0.857,
+        # peach 0.750; cutlery: cutleryfork, cutleryknife), so look AMBIGUITY below it.
+        close = difflib.get_close_matches(name, self.ordered, n=2, cutoff=CUTOFF - AMBIGUITY)
+        if not close or difflib.SequenceMatcher(None, name, close[0]).ratio() < CUTOFF:
+            return None
+        return close[0] if len(close) == 1 else None
         if len(close) == 1:
             return close[0]
-        if len(close) == 2:
-            first = difflib.SequenceMatcher(None, name, close[0]).ratio()
-            second = difflib.SequenceMatcher(None, name, close[1]).ratio()
-            if first - second >= 0.05:
-                return close[0]
+        first = difflib.SequenceMatcher(None, name, close[0]).ratio()
+        second = difflib.SequenceMatcher(None, name, close[1]).ratio()
+        if first - second >= 0.05:
+            return close[0]
         return None
 
 
-_MATCHERS: dict[int, tuple[GroundTask, _Matcher, _Matcher, _Matcher]] = {}
+_MATCHERS: dict[int, tuple[GroundTask, _Matcher, _Matcher]] = {}
 
 
-def _matchers(task: GroundTask) -> tuple[_Matcher, _Matcher, _Matcher]:
+def _matchers(task: GroundTask) -> tuple[_Matcher, _Matcher]:
     cached = _MATCHERS.get(id(task))
     if cached is None or cached[0] is not task:
         vocabulary = vocabulary_of(task)
-        cached = (
-            task,
-            _Matcher(vocabulary.action_names),
-            _Matcher(vocabulary.predicate_names),
-            _Matcher(vocabulary.object_names),
-        )
+        cached = (task, _Matcher(vocabulary.predicate_names), _Matcher(vocabulary.object_names))
         _MATCHERS[id(task)] = cached
-    return cached[1], cached[2], cached[3]
+    return cached[1], cached[2]
+
+
+def _underscored(name: str) -> str:
+    try:
+        return parse_atom(name).underscored
+    except InputError:
+        return name
+
+
+def _match_action(name: str, predicates: _Matcher, objects: _Matcher, action_names: frozenset[str]) -> Atom | None:
+    try:
+        atom = parse_atom(name)
+    except InputError:
+        return None
+    predicate = predicates.match(atom.predicate)
+    args = [objects.match(arg) for arg in atom.args]
+    if predicate is None or any(arg is None for arg in args):
+        return None
+    candidate = Atom(predicate, tuple(a for a in args if a is not None))
+    return candidate if candidate.underscored in action_names else None
 
 
 def check_reply(parsed: ParsedReply, task: GroundTask) -> GrammarCheck:
-    """Check every name of a parsed reply against ``task``."""
-    actions, predicates, objects = _matchers(task)
+    """Check every name of a parsed reply against ``task``.
+
+    An action name is repaired part by part: its predicate and each object must match on their own
+    (exactly, up to case, or as an unambiguous close match) and together name a grounded action, so
+    a repair never swaps the verb or the object (``Put_apple`` is not taken for ``Cut_apple``).
+    """
+    predicates, objects = _matchers(task)
+    action_names = vocabulary_of(task).action_names
     repairs: list[str] = []
     unknown: list[str] = []
 
@@ -103,13 +135,14 @@ def check_reply(parsed: ParsedReply, task: GroundTask) -> GrammarCheck:
 
     path: list[str] = []
     for name in parsed.hints.path:
-        try:
-            underscored = parse_atom(name).underscored
-        except InputError:
-            underscored = name
-        found = resolve(actions, underscored)
-        if found is not None:
-            path.append(str(parse_atom(found)))
+        written = _underscored(name)  # the datasets' spelling, as the model was asked to write it
+        action = _match_action(name, predicates, objects, action_names)
+        if action is None:
+            unknown.append(written)
+            continue
+        if action.underscored != written:
+            repairs.append(f"{written} -> {action.underscored}")
+        path.append(str(action))
     kept_predicates = [p for p in (resolve(predicates, n) for n in parsed.hints.predicates) if p]
     kept_objects = [o for o in (resolve(objects, n) for n in parsed.hints.objects) if o]
     missing = tuple(SECTION_TITLES[s] for s in ("path", "predicates", "objects") if s not in parsed.found)

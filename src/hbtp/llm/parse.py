@@ -20,9 +20,9 @@ _HEADINGS: tuple[tuple[str, str], ...] = (
     ("objects", r"(?:vital|relevant|key)?\s*objects?"),
 )
 _HEADING = re.compile(
-    r"^[\s>*#\-•\d.)]*\**\s*(?P<name>"
+    r"^[\s>*#\-•\d.)]*+\**\s*(?P<name>"
     + "|".join(f"(?P<{key}>{pattern})" for key, pattern in _HEADINGS)
-    + r")\s*\**\s*[:：]\s*\**(?P<rest>.*)$",
+    + r")\s*+\**+\s*+[:：]\s*\**(?P<rest>.*)$",
     re.IGNORECASE,
 )
 _OTHER_KEY = re.compile(r"^[\s*#\-•]*[A-Za-z][A-Za-z _-]{0,40}\**\s*:")

@@ -182,6 +182,7 @@ def feedback_request(
     pool: Sequence[Record],
     examples: int,
     exclude_same_goal: bool = False,
+    blacklist: Iterable[str] = (),
 ) -> Request:
     """Reflective feedback (§III-C d): the top-k longest partial paths and what the space left out."""
     lines = ["The planner could not reach the initial state with the actions you allowed."]
@@ -199,7 +200,9 @@ def feedback_request(
     # A base model cannot follow instructions: it gets more demonstrations instead.
     more = retrieve_examples(previous.goal, pool, examples, exclude_same_goal)
     demos = "\n\n".join(format_example(r) for r in reversed(more))
-    completion = (demos + "\n\n" if demos else "") + f"Goals: {previous.goal}\nOptimal Actions:"
+    avoid = _avoid_text(blacklist)
+    completion = (demos + "\n\n" if demos else "") + (avoid + "\n" if avoid else "")
+    completion += f"Goals: {previous.goal}\nOptimal Actions:"
     return _replace(
         previous,
         messages=(*previous.messages, Message("assistant", reply_text), Message("user", "\n".join(lines))),

@@ -16,7 +16,7 @@ import logging
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any
 
 from hbtp.datasets.records import Record
 from hbtp.domains.scenarios import Scenario
@@ -35,7 +35,9 @@ from hbtp.planning.search import search
 
 log = logging.getLogger(__name__)
 
-Outcome = Literal["NF", "1F", "2F", "3F", "fallback", "failed"]
+#: "NF" (solved with no feedback), "1F", "2F", ... (after that many feedback rounds), "fallback"
+#: (solved in the full space after the last round), or "failed".
+Outcome = str
 
 
 @dataclass(frozen=True)
@@ -111,6 +113,20 @@ class LoopResult:
         }
 
 
+def round_label(round_number: int) -> Outcome:
+    """``NF`` for the first answer, ``kF`` after k feedback rounds."""
+    return "NF" if round_number == 0 else f"{round_number}F"
+
+
+def feedback_rounds_of(outcome: Outcome) -> int | None:
+    """The number of feedback rounds a successful outcome needed; ``None`` for fallback or failed."""
+    if outcome == "NF":
+        return 0
+    if outcome.endswith("F") and outcome[:-1].isdigit():
+        return int(outcome[:-1])
+    return None
+
+
 def _prompt_record(request: Request) -> dict[str, Any]:
     return {
         "key": request.key(),
@@ -159,13 +175,15 @@ class _Round:
         seconds = 0.0
         check: GrammarCheck | None = None
         error = ""
-        for _ in range(self.options.grammar_retries + 1):
+        for attempt in range(self.options.grammar_retries + 1):
             prompts.append(request)
             try:
                 reply = self.backend.complete(request)
             except BackendError as failure:
                 error = str(failure)
                 log.warning("round %d: the LLM failed: %s", request.round, failure)
+                if replies:  # continue from the last request that was answered
+                    request = prompts[-2]
                 break
             seconds += reply.seconds
             replies.append(reply.text)
@@ -174,8 +192,8 @@ class _Round:
                 parsed = parse_reply("Optimal Actions:" + reply.text)
             check = check_reply(parsed, self.scenario.task)
             self.blacklist.extend(n for n in check.unknown if n not in self.blacklist)
-            if check.clean or not check.problems:
-                break
+            if check.clean or not check.problems or attempt == self.options.grammar_retries:
+                break  # (no retry request after the last attempt: it would never be answered)
             request = retry_request(request, reply.text, check.problems, self.blacklist)
         return request, check, prompts, replies, seconds, error
 
@@ -213,6 +231,7 @@ def run_hbtp(
                 pool,
                 options.prompt.examples + 2 * round_number,
                 options.prompt.exclude_same_goal,
+                asker.blacklist,
             )
         request, check, prompts, replies, llm_seconds, error = asker.ask(request)
         llm_total += llm_seconds
@@ -253,21 +272,21 @@ def run_hbtp(
         )
         last = result
         if result.solved:
-            outcome: Outcome = ("NF", "1F", "2F", "3F")[round_number] if round_number <= 3 else "3F"
-            return LoopResult(outcome, result, tuple(rounds), llm_total, planning_total)
+            return LoopResult(round_label(round_number), result, tuple(rounds), llm_total, planning_total)
         if error and not replies:
             break  # the backend is down: feedback cannot help
     if not options.fallback or last is None:
         final = last or PlanResult(Status.UNSOLVABLE, options.planner, resolved, message="no round ran")
         return LoopResult("failed", final, tuple(rounds), llm_total, planning_total)
     started = time.perf_counter()
+    # The fallback prunes with proved mutexes only: declared ones could cut off the only solution.
     final = plan(
         task,
         resolved,
         options.planner,
         hints=Hints(hints.path, tuple(sorted(predicates)), tuple(sorted(objects))),
         space="full",
-        mutexes=scenario.mutexes,
+        mutexes=scenario.mutexes.proved_only(),
         heuristic=options.fallback_heuristic,
         limits=Limits(time_s=options.fallback_time_limit),
     )
