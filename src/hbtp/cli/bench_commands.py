@@ -15,7 +15,7 @@ from hbtp.domains import Scenario, scenario_names
 from hbtp.llm.backend import Backend
 from hbtp.llm.backends.first_reply import FirstReplyBackend
 from hbtp.llm.backends.registry import BackendOptions, make_backend
-from hbtp.llm.prompt import PromptOptions
+from hbtp.llm.prompt import RETRIEVALS, PromptOptions
 from hbtp.pipeline import LoopOptions
 from hbtp.planning import PLANNERS
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
@@ -91,6 +91,7 @@ def table1(
 @click.option("--planner", type=click.Choice(list(PLANNERS)), default="hbtp-s", show_default=True)
 @click.option("--feedback-rounds", type=click.IntRange(0, 10), default=3, show_default=True)
 @click.option("--examples", type=click.IntRange(0, 50), default=5, show_default=True)
+@click.option("--retrieval", type=click.Choice(list(RETRIEVALS)), default="lexical", show_default=True)
 @click.option("--round-time-limit", type=float, default=5.0, show_default=True)
 @click.option("--runs", type=click.IntRange(1, 100), default=1, show_default=True, help="Repeat with seeds 0..N-1.")
 @click.option("--noise-drop", type=float, default=0.3, show_default=True)
@@ -111,6 +112,7 @@ def table2(
     planner: str,
     feedback_rounds: int,
     examples: int,
+    retrieval: str,
     round_time_limit: float,
     runs: int,
     noise_drop: float,
@@ -131,7 +133,9 @@ def table2(
         planner=planner,
         feedback_rounds=feedback_rounds,
         round_time_limit=round_time_limit,
-        prompt=PromptOptions(examples=examples, style="completion" if llm_spec == "local" else "chat"),
+        prompt=PromptOptions(
+            examples=examples, style="completion" if llm_spec == "local" else "chat", retrieval=retrieval
+        ),
     )
 
     def backend_for(scenario: Scenario, run: int) -> Backend:

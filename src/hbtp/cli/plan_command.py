@@ -19,7 +19,7 @@ from hbtp.errors import DatasetError, InputError
 from hbtp.llm.backends.registry import BackendOptions, make_backend
 from hbtp.llm.parse import parse_reply
 from hbtp.llm.pool import example_pool
-from hbtp.llm.prompt import PromptOptions
+from hbtp.llm.prompt import RETRIEVALS, PromptOptions
 from hbtp.logic.task import Goal
 from hbtp.pipeline import LoopOptions, LoopResult, run_hbtp
 from hbtp.planning import PLANNER_DESCRIPTIONS, PLANNERS, Hints, Limits, hints_from_names, plan
@@ -122,6 +122,13 @@ def _goal_ids(loaded: Scenario, record: Record) -> frozenset[int] | None:
 @click.option("--grammar-retries", type=click.IntRange(0, 10), default=2, show_default=True)
 @click.option("--examples", type=click.IntRange(0, 50), default=5, show_default=True, help="Few-shot demonstrations.")
 @click.option("--examples-from", type=click.Path(dir_okay=False), help="Your own example pool (dataset file).")
+@click.option(
+    "--retrieval",
+    type=click.Choice(list(RETRIEVALS)),
+    default="lexical",
+    show_default=True,
+    help="How demonstrations are chosen (embeddings: the optional extra).",
+)
 @click.option("--round-time-limit", type=float, default=5.0, show_default=True, help="Planning seconds per round.")
 @click.option("--no-fallback", is_flag=True, help="Do not plan in the full space after the last round.")
 @click.option("--noise-drop", type=float, default=0.3, show_default=True, help="noisy-oracle: fraction dropped.")
@@ -158,6 +165,7 @@ def plan_command(
     grammar_retries: int,
     examples: int,
     examples_from: str | None,
+    retrieval: str,
     round_time_limit: float,
     no_fallback: bool,
     noise_drop: float,
@@ -200,7 +208,9 @@ def plan_command(
             fallback=not no_fallback,
             fallback_time_limit=time_limit,
             fallback_heuristic=cast(HeuristicName, heuristic),
-            prompt=PromptOptions(examples=examples, style="completion" if llm_spec == "local" else "chat"),
+            prompt=PromptOptions(
+                examples=examples, style="completion" if llm_spec == "local" else "chat", retrieval=retrieval
+            ),
         )
         try:
             loop = run_hbtp(loaded, resolved, backend, example_pool(loaded, examples_from), options)

@@ -23,6 +23,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from hbtp.datasets.records import Record
+from hbtp.errors import InputError
 from hbtp.llm.backend import Message, Request
 from hbtp.llm.vocabulary import vocabulary_of
 from hbtp.logic.atoms import parse_conjunction
@@ -41,6 +42,8 @@ each object (Walk_apple, RightPutIn_apple_fridge), in execution order, minimisin
 6) Follow the demonstrations' format exactly: three lines, no explanations."""
 
 
+RETRIEVALS = ("lexical", "embeddings")
+
 #: Three short lines; a base model that starts repeating itself is cut off here.
 COMPLETION_MAX_TOKENS = 160
 
@@ -52,6 +55,7 @@ class PromptOptions:
     include_objects: bool = True  # list category members in the chat prompt
     max_tokens: int = 256  # chat; completion replies get COMPLETION_MAX_TOKENS
     exclude_same_goal: bool = False  # benchmarks: never show a demonstration of the very goal asked
+    retrieval: str = "lexical"  # or "embeddings" (the optional extra)
 
 
 def _goal_features(goal: str) -> tuple[frozenset[str], frozenset[str], frozenset[str]]:
@@ -70,21 +74,37 @@ def _jaccard(left: frozenset[str], right: frozenset[str]) -> float:
     return len(left & right) / union if union else 0.0
 
 
-def retrieve_examples(goal: str, pool: Sequence[Record], k: int, exclude_goal: bool = False) -> list[Record]:
-    """The ``k`` records of ``pool`` most similar to ``goal`` (ties: shorter goals, then file order)."""
+def retrieve_examples(
+    goal: str, pool: Sequence[Record], k: int, exclude_goal: bool = False, retrieval: str = "lexical"
+) -> list[Record]:
+    """The ``k`` records of ``pool`` most similar to ``goal`` (ties: shorter goals, then file order).
+
+    ``retrieval`` is ``lexical`` (the default, below) or ``embeddings`` (the optional extra, see
+    :mod:`hbtp.llm.embeddings`).
+    """
     if k <= 0 or not pool:
         return []
+    if retrieval not in RETRIEVALS:
+        raise InputError(f"unknown retrieval {retrieval!r}; choose one of: {', '.join(RETRIEVALS)}")
     literals, objects, predicates = _goal_features(goal)
+    dense: list[float] | None = None
+    if retrieval == "embeddings":
+        from hbtp.llm.embeddings import similarities
+
+        dense = similarities(goal, [record.goal for record in pool])
     scored: list[tuple[float, int, int, Record]] = []
     for position, record in enumerate(pool):
         other_literals, other_objects, other_predicates = _goal_features(record.goal)
         if exclude_goal and other_literals == literals:
             continue
-        score = (
-            3.0 * _jaccard(literals, other_literals)
-            + 2.0 * _jaccard(objects, other_objects)
-            + 1.0 * _jaccard(predicates, other_predicates)
-        )
+        if dense is not None:
+            score = dense[position]
+        else:
+            score = (
+                3.0 * _jaccard(literals, other_literals)
+                + 2.0 * _jaccard(objects, other_objects)
+                + 1.0 * _jaccard(predicates, other_predicates)
+            )
         scored.append((-score, len(other_literals), position, record))
     scored.sort(key=lambda item: item[:3])
     return [record for *_, record in scored[:k]]
@@ -123,7 +143,7 @@ def build_request(
     avoid: Iterable[str] = (),
 ) -> Request:
     """The first question for ``goal`` (round 0), in both shapes."""
-    examples = retrieve_examples(goal, pool, options.examples, options.exclude_same_goal)
+    examples = retrieve_examples(goal, pool, options.examples, options.exclude_same_goal, options.retrieval)
     demos = "\n\n".join(format_example(r) for r in examples)
     closest_last = "\n\n".join(format_example(r) for r in reversed(examples))
     goal_text = _normal_goal(goal)
@@ -183,6 +203,7 @@ def feedback_request(
     examples: int,
     exclude_same_goal: bool = False,
     blacklist: Iterable[str] = (),
+    retrieval: str = "lexical",
 ) -> Request:
     """Reflective feedback (§III-C d): the top-k longest partial paths and what the space left out."""
     lines = ["The planner could not reach the initial state with the actions you allowed."]
@@ -198,7 +219,7 @@ def feedback_request(
         "Optimal Actions, Vital Action Predicates and Vital Objects."
     )
     # A base model cannot follow instructions: it gets more demonstrations instead.
-    more = retrieve_examples(previous.goal, pool, examples, exclude_same_goal)
+    more = retrieve_examples(previous.goal, pool, examples, exclude_same_goal, retrieval)
     demos = "\n\n".join(format_example(r) for r in reversed(more))
     avoid = _avoid_text(blacklist)
     completion = (demos + "\n\n" if demos else "") + (avoid + "\n" if avoid else "")

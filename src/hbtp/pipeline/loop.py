@@ -232,6 +232,7 @@ def run_hbtp(
                 options.prompt.examples + 2 * round_number,
                 options.prompt.exclude_same_goal,
                 asker.blacklist,
+                options.prompt.retrieval,
             )
         request, check, prompts, replies, llm_seconds, error = asker.ask(request)
         llm_total += llm_seconds
