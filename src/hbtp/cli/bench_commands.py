@@ -7,6 +7,7 @@ from typing import cast
 
 import click
 
+from hbtp.bench.fig4 import Fig4Config, run_fig4
 from hbtp.bench.results import write_json
 from hbtp.bench.table1 import Table1Config, run_table1
 from hbtp.bench.table2 import Table2Config, run_table2
@@ -171,3 +172,44 @@ def table2(
 
 def _fmt(value: float | None, width: int = 6) -> str:
     return f"{value:>{width}.2f}" if value is not None else f"{'-':>{width}}"
+
+
+@bench.command("fig4")
+@click.option("--correct-rates", default="0,0.25,0.5,0.75,1", show_default=True)
+@click.option("--error-rates", default="0,0.5,1", show_default=True)
+@click.option("--seeds", type=click.IntRange(1, 100), default=3, show_default=True)
+@click.option("-t", "--time-limit", type=float, default=5.0, show_default=True)
+@click.option("--limit", type=int, help="Only the first N tasks.")
+@click.option("-o", "--out", "out_dir", required=True, type=click.Path(file_okay=False))
+@click.option("--no-progress", is_flag=True)
+def fig4(
+    correct_rates: str, error_rates: str, seeds: int, time_limit: float, limit: int | None, out_dir: str,
+    no_progress: bool,
+) -> int:  # fmt: skip
+    """Figure 4: |S-| and D(T) of HBTP-O and HBTP-S as the heuristic path gets more right or wrong."""
+    config = Fig4Config(
+        correct_rates=_rates(correct_rates, "--correct-rates"),
+        error_rates=_rates(error_rates, "--error-rates", upper=10.0),
+        seeds=seeds,
+        time_limit=time_limit,
+        limit=limit,
+    )
+    summary = run_fig4(config, Path(out_dir), progress=not no_progress)
+    click.echo(f"{'planner':8} {'ER':>4} {'correct':>8} {'solved':>8} {'|S-|':>8} {'D(T)':>8}")
+    for cell in summary["cells"]:
+        click.echo(
+            f"{cell['planner']:8} {cell['error']:>4} {cell['correct']:>8} {cell['solved']:>4}/{cell['runs']:<3} "
+            f"{_fmt(cell['mean_explored'], 8)} {_fmt(cell['mean_cost'], 8)}"
+        )
+    click.echo(f"wrote {Path(out_dir)}/results.jsonl, summary.json (and fig4.png with the plot extra)")
+    return 0
+
+
+def _rates(text: str, hint: str, upper: float = 1.0) -> tuple[float, ...]:
+    try:
+        values = tuple(float(part) for part in text.split(",") if part.strip())
+    except ValueError:
+        raise click.BadParameter(f"expected comma-separated numbers, not {text!r}", param_hint=hint) from None
+    if not values or any(not 0.0 <= v <= upper for v in values):
+        raise click.BadParameter(f"every rate must be between 0 and {upper}", param_hint=hint)
+    return values
