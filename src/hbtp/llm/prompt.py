@@ -35,7 +35,7 @@ RULES = """[System]
 [Few-shot Demonstrations] map goals to Optimal Actions, Vital Action Predicates and Vital Objects.
 1) Analyse the goal (literals of [Condition Predicates] joined by &) and find the cheapest actions that achieve it.
 2) Begin with 'Optimal Actions:' followed by a comma-separated list of actions, an underscore between the verb and \
-each object (Walk_apple, RightPutIn_apple_fridge), in execution order, minimising the total cost.
+each object ({examples}), in execution order, minimising the total cost.
 3) Then 'Vital Action Predicates:' followed by the comma-separated verbs used.
 4) Then 'Vital Objects:' followed by the comma-separated objects used.
 5) Use only actions, predicates and objects from the lists above.
@@ -148,9 +148,10 @@ def build_request(
     closest_last = "\n\n".join(format_example(r) for r in reversed(examples))
     goal_text = _normal_goal(goal)
     avoid_text = _avoid_text(avoid)
+    rules = RULES.format(examples=", ".join(_format_examples(task)))
     system = "\n\n".join(
         part
-        for part in (scenario_text(task, options.include_objects), f"[Few-shot Demonstrations]\n{demos}", RULES)
+        for part in (scenario_text(task, options.include_objects), f"[Few-shot Demonstrations]\n{demos}", rules)
         if part
     )
     completion = (closest_last + "\n\n" if closest_last else "") + (avoid_text + "\n" if avoid_text else "")
@@ -165,6 +166,14 @@ def build_request(
         else options.max_tokens,
         stop=("\n\n", "Goals:"),
     )
+
+
+def _format_examples(task: GroundTask) -> list[str]:
+    """Two action names of the scenario itself (the fewest and the most arguments) for the rules."""
+    if not task.actions:
+        return []
+    by_arity = sorted(task.actions, key=lambda a: (len(a.objects), a.index))
+    return list(dict.fromkeys((by_arity[0].signature.underscored, by_arity[-1].signature.underscored)))
 
 
 def _avoid_text(avoid: Iterable[str]) -> str:
