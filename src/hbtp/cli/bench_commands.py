@@ -11,6 +11,7 @@ from hbtp.bench.fig4 import Fig4Config, run_fig4
 from hbtp.bench.results import write_json
 from hbtp.bench.table1 import Table1Config, run_table1
 from hbtp.bench.table2 import Table2Config, run_table2
+from hbtp.cli.options import comma_choices, comma_numbers
 from hbtp.datasets import read_dataset_file
 from hbtp.domains import Scenario, scenario_names
 from hbtp.llm.backend import Backend
@@ -47,10 +48,7 @@ def table1(
     no_progress: bool,
 ) -> int:
     """Table I: the four planners on the 100 Table I tasks (RobotHow)."""
-    chosen = tuple(p.strip() for p in planners.split(",") if p.strip())
-    unknown = [p for p in chosen if p not in PLANNERS]
-    if unknown or not chosen:
-        raise click.BadParameter(f"unknown planner(s) {', '.join(unknown) or '(none)'}", param_hint="--planners")
+    chosen = comma_choices(planners, PLANNERS, "--planners", "planner")
     if not time_limit > 0:
         raise click.BadParameter("must be a positive number of seconds", param_hint="--time-limit")
     config = Table1Config(
@@ -188,8 +186,8 @@ def fig4(
 ) -> int:  # fmt: skip
     """Figure 4: |S-| and D(T) of HBTP-O and HBTP-S as the heuristic path gets more right or wrong."""
     config = Fig4Config(
-        correct_rates=_rates(correct_rates, "--correct-rates"),
-        error_rates=_rates(error_rates, "--error-rates", upper=10.0),
+        correct_rates=comma_numbers(correct_rates, "--correct-rates"),
+        error_rates=comma_numbers(error_rates, "--error-rates", upper=10.0),
         seeds=seeds,
         time_limit=time_limit,
         limit=limit,
@@ -203,13 +201,3 @@ def fig4(
         )
     click.echo(f"wrote {Path(out_dir)}/results.jsonl, summary.json (and fig4.png with the plot extra)")
     return 0
-
-
-def _rates(text: str, hint: str, upper: float = 1.0) -> tuple[float, ...]:
-    try:
-        values = tuple(float(part) for part in text.split(",") if part.strip())
-    except ValueError:
-        raise click.BadParameter(f"expected comma-separated numbers, not {text!r}", param_hint=hint) from None
-    if not values or any(not 0.0 <= v <= upper for v in values):
-        raise click.BadParameter(f"every rate must be between 0 and {upper}", param_hint=hint)
-    return values

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import functools
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar, cast
@@ -101,3 +101,24 @@ def echo_json(data: Any) -> None:
 def write_files_atomically(files: dict[Path, str]) -> None:
     """Write every file or none (see :func:`hbtp.files.write_all_atomically`)."""
     write_all_atomically(dict(files))
+
+
+def comma_choices(text: str, choices: Iterable[str], hint: str, what: str) -> tuple[str, ...]:
+    """``a,b,c`` checked against ``choices`` (a click usage error names the unknown ones)."""
+    allowed = set(choices)
+    chosen = tuple(part.strip() for part in text.split(",") if part.strip())
+    unknown = [part for part in chosen if part not in allowed]
+    if unknown or not chosen:
+        raise click.BadParameter(f"unknown {what}(s) {', '.join(unknown) or '(none)'}", param_hint=hint)
+    return chosen
+
+
+def comma_numbers(text: str, hint: str, upper: float = 1.0) -> tuple[float, ...]:
+    """``0,0.5,1`` as numbers between 0 and ``upper``."""
+    try:
+        values = tuple(float(part) for part in text.split(",") if part.strip())
+    except ValueError:
+        raise click.BadParameter(f"expected comma-separated numbers, not {text!r}", param_hint=hint) from None
+    if not values or any(not 0.0 <= v <= upper for v in values):
+        raise click.BadParameter(f"every value must be between 0 and {upper}", param_hint=hint)
+    return values

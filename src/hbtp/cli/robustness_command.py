@@ -8,19 +8,10 @@ from typing import cast
 import click
 
 from hbtp.bench.robustness import MAX_TICKS, SCENARIOS, run_robustness
+from hbtp.cli.options import comma_choices, comma_numbers
 from hbtp.cli.run_command import exit_codes
 from hbtp.planning import PLANNERS
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
-
-
-def _floats(text: str) -> tuple[float, ...]:
-    try:
-        values = tuple(float(part) for part in text.split(",") if part.strip())
-    except ValueError:
-        raise click.BadParameter(f"expected comma-separated numbers, not {text!r}", param_hint="--p") from None
-    if not values or any(not 0.0 <= v <= 1.0 for v in values):
-        raise click.BadParameter("every probability must be in [0, 1]", param_hint="--p")
-    return values
 
 
 def _figure(value: float | None, percent: bool = False) -> str:
@@ -65,17 +56,14 @@ def robustness(
     no_progress: bool,
 ) -> int:
     """Full tree vs path-only tree on the Table II test sets, with random external events."""
-    chosen = tuple(s.strip() for s in scenario_text.split(",") if s.strip())
-    unknown = [s for s in chosen if s not in SCENARIOS]
-    if unknown or not chosen:
-        raise click.BadParameter(f"unknown scenario(s) {', '.join(unknown) or '(none)'}", param_hint="--scenarios")
+    chosen = comma_choices(scenario_text, SCENARIOS, "--scenarios", "scenario")
     if runs < 1:
         raise click.BadParameter("must be at least 1", param_hint="--runs")
     if max_ticks < 1:
         raise click.BadParameter("must be at least 1", param_hint="--max-ticks")
     summary = run_robustness(
         Path(out_dir),
-        p_values=_floats(p_text),
+        p_values=comma_numbers(p_text, "--p"),
         runs=runs,
         seed=seed,
         scenarios=chosen,
