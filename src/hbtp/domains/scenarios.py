@@ -23,6 +23,7 @@ from typing import Any
 
 from hbtp import __version__
 from hbtp.domains.grounding import ground
+from hbtp.domains.lifted import Problem
 from hbtp.domains.mutex import Mutexes, infer_mutexes
 from hbtp.domains.pddl_reader import read_domain_file, read_problem_file
 from hbtp.errors import InputError
@@ -67,6 +68,13 @@ class Scenario:
 def _manifest() -> dict[str, dict[str, Any]]:
     with (DATA / "scenarios.toml").open("rb") as handle:
         return tomllib.load(handle)
+
+
+def manifest_entry(name: str) -> dict[str, Any]:
+    """A shipped scenario's entry in ``scenarios.toml``."""
+    if name not in _manifest():
+        raise InputError(f"unknown scenario {name!r}; choose one of: {', '.join(scenario_names())}")
+    return dict(_manifest()[name])
 
 
 def scenario_names() -> tuple[str, ...]:
@@ -178,12 +186,15 @@ def load_pddl_scenario(
     mutex_nogoods: Sequence[Sequence[str]] = (),
     fewshot: str | None = None,
     test_set: str | None = None,
+    problem: Problem | None = None,
 ) -> Scenario:
-    """Load a scenario from a user's PDDL domain and problem files."""
+    """Load a scenario from a user's PDDL domain and problem files (``problem``, when given, replaces
+    the problem file's content, e.g. a generated larger problem)."""
     started = time.perf_counter()
     domain_path, problem_path = Path(domain_file), Path(problem_file)
     domain = read_domain_file(domain_path)
-    problem = read_problem_file(problem_path, domain)
+    if problem is None:
+        problem = read_problem_file(problem_path, domain)
     task_name = name or problem.name
     task = ground(domain, problem, keep_fluent=keep_fluent, object_categories=objects, name=task_name)
     mutexes = infer_mutexes(task, mutex_groups, mutex_nogoods)

@@ -1,0 +1,73 @@
+"""Larger scenarios for scaling experiments: clone objects of a problem with all their facts.
+
+A clone ``apple2`` of ``apple`` gets every static fact and every initial fact that mentions
+``apple``, with ``apple`` replaced (facts about two objects are cloned for each of them), so it
+belongs to the same categories and roles and starts in the same state. Actions over pairs of
+objects grow quadratically: RobotHow with every object cloned once has about four times as many
+grounded actions. The original objects, and so every task of the original scenario, are unchanged.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+
+from hbtp.domains.lifted import AtomFormula, Problem, TypedName
+from hbtp.domains.pddl_reader import read_domain_file, read_problem_file
+from hbtp.domains.scenarios import Scenario, load_pddl_scenario, load_scenario, manifest_entry
+from hbtp.errors import InputError
+
+
+def clone_objects(problem: Problem, factor: float) -> Problem:
+    """``problem`` with ``round((factor - 1) * n)`` clones of its n objects, spread over them in turn."""
+    if not factor >= 1.0:
+        raise InputError(f"the scale factor must be at least 1, not {factor}")
+    originals = [o for o in problem.objects]
+    extra = round((factor - 1.0) * len(originals))
+    names = {o.name for o in originals}
+    clones: dict[str, list[str]] = {o.name: [] for o in originals}
+    new_objects: list[TypedName] = list(originals)
+    for index in range(extra):
+        source = originals[index % len(originals)]
+        copy = index // len(originals) + 2
+        name = f"{source.name}{copy}"
+        while name in names:
+            copy += 1
+            name = f"{source.name}{copy}"
+        names.add(name)
+        clones[source.name].append(name)
+        new_objects.append(TypedName(name, source.types))
+    facts: list[AtomFormula] = list(problem.init)
+    seen = {(f.predicate, f.terms) for f in facts}
+    for fact in problem.init:
+        options = [[term, *clones.get(term, [])] for term in fact.terms]
+        for terms in itertools.product(*options):
+            if (fact.predicate, terms) not in seen:
+                seen.add((fact.predicate, terms))
+                facts.append(AtomFormula(fact.predicate, terms))
+    return dataclasses.replace(
+        problem, name=f"{problem.name}-x{factor:g}", objects=tuple(new_objects), init=tuple(facts)
+    )
+
+
+def scaled_scenario(name: str, factor: float) -> Scenario:
+    """A shipped scenario with its objects cloned ``factor`` times (``factor`` 1: the scenario itself)."""
+    if math.isclose(factor, 1.0):
+        return load_scenario(name)
+    base = load_scenario(name)
+    domain = read_domain_file(base.domain_file)
+    problem = clone_objects(read_problem_file(base.problem_file, domain), factor)
+    entry = manifest_entry(name)
+    mutex = entry.get("mutex", {})
+    return load_pddl_scenario(
+        base.domain_file,
+        base.problem_file,
+        problem=problem,
+        name=f"{name}-x{factor:g}",
+        title=f"{base.title} x{factor:g}",
+        keep_fluent=entry.get("keep_fluent", ()),
+        objects=entry.get("objects", ()),
+        mutex_groups=mutex.get("groups", ()),
+        mutex_nogoods=mutex.get("nogoods", ()),
+    )
