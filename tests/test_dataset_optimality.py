@@ -7,6 +7,7 @@ from __future__ import annotations
 import pytest
 
 from hbtp.datasets import DATASET_SCENARIO, dataset_names, load_dataset, validate_records
+from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
 from hbtp.planning import Limits
 from hbtp.planning.oracle import optimal_cost_function
@@ -14,7 +15,8 @@ from hbtp.planning.oracle import optimal_cost_function
 _TABLE2_ROBOTHOW = "4 8 9 12 14 21 23 24 25 29 30 33 36 38 41 42 43 44 47"
 NOT_OPTIMAL = {
     "table2_robothow_50": set(_TABLE2_ROBOTHOW.split()),
-    "fewshot_robothow_100": {"5", "12", "21", "72"},
+    # 92 is not in reference_results.md either: 162 where the optimum is 158 (Fast Downward agrees).
+    "fewshot_robothow_100": {"5", "12", "21", "72", "92"},
     # Not in reference_results.md: LeftGrab forces opening the bin first; RightGrab saves a walk (63 < 78).
     "fewshot_robothow_small_100": {"92"},
 }
@@ -25,11 +27,19 @@ NOT_OPTIMAL = {
 def test_only_the_known_plans_are_not_optimal(name: str) -> None:
     scenario_name = "robothow" if name == "fewshot_robothow_small_100" else DATASET_SCENARIO[name]
     scenario = load_scenario(scenario_name)
-    report = validate_records(
-        load_dataset(name),
-        scenario.task,
-        dataset=name,
-        optimal_cost=optimal_cost_function(scenario, Limits(time_s=30)),
-    )
+    optimal = optimal_cost_function(scenario, Limits(time_s=600))
+    unknown: list[str] = []
+
+    def checked(record: Record) -> int | None:
+        cost = optimal(record)
+        if cost is None:
+            unknown.append(record.id)
+        return cost
+
+    records = load_dataset(name)
+    report = validate_records(records, scenario.task, dataset=name, optimal_cost=checked)
+    invalid = set(report.invalid_ids)
+    # every valid record got its optimum (a time limit must not hide a defect)
+    assert [i for i in unknown if i not in invalid] == []
     flagged = {issue.record_id for issue in report.issues if issue.code == "not-optimal"}
     assert flagged == NOT_OPTIMAL.get(name, set())
