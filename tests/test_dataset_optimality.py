@@ -15,8 +15,9 @@ from hbtp.planning.oracle import optimal_cost_function
 _TABLE2_ROBOTHOW = "4 8 9 12 14 21 23 24 25 29 30 33 36 38 41 42 43 44 47"
 NOT_OPTIMAL = {
     "table2_robothow_50": set(_TABLE2_ROBOTHOW.split()),
-    # 92 is not in reference_results.md either: 162 where the optimum is 158 (Fast Downward agrees).
-    "fewshot_robothow_100": {"5", "12", "21", "72", "92"},
+    # 92, 94 and 99 are not in reference_results.md: 162, 169 and 169 where the optima are 158, 165
+    # and 165 (Fast Downward agrees on 92 and 94).
+    "fewshot_robothow_100": {"5", "12", "21", "72", "92", "94", "99"},
     # Not in reference_results.md: LeftGrab forces opening the bin first; RightGrab saves a walk (63 < 78).
     "fewshot_robothow_small_100": {"92"},
 }
