@@ -242,3 +242,28 @@ class SymbolicEngine:
             if status != self.bt.NodeStatus.RUNNING:
                 break
         return status
+
+
+# ------------------------------------------------------------------------------ a small shared task
+def kitchen_builder() -> DomainBuilder:
+    """Walk to the fridge, open it, put the milk in: a small task several tests extend."""
+    return (
+        DomainBuilder("kitchen")
+        .constants(["self"])
+        .action("Walk(fridge)", pre=["IsStanding(self)"], add=["IsNear(self,fridge)"], cost=15)
+        .action(
+            "Open(fridge)",
+            pre=["IsNear(self,fridge)", "IsClose(fridge)"],
+            add=["IsOpen(fridge)"],
+            delete=["IsClose(fridge)"],
+            cost=3,
+        )
+        .action(
+            "PutIn(milk,fridge)",
+            pre=["IsHolding(self,milk)", "IsNear(self,fridge)", "IsOpen(fridge)"],
+            add=["IsIn(milk,fridge)"],
+            delete=["IsHolding(self,milk)"],
+            cost=10,
+        )
+        .initial(["IsStanding(self)", "IsClose(fridge)", "IsHolding(self,milk)"])
+    )

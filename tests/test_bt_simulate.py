@@ -11,37 +11,21 @@ from hbtp.bt import Action, Condition, Fallback, Node, NodeStatus, Sequence, tic
 from hbtp.bt.simulate import Event, compile_tree, simulate, trace_to_jsonl
 from hbtp.bt.verify import flatten
 from hbtp.datasets import load_dataset
-from hbtp.domains import DomainBuilder, Scenario
+from hbtp.domains import Scenario
 from hbtp.errors import InputError
 from hbtp.logic.task import GroundTask, State
 from hbtp.planning import plan
-from helpers import random_task, run_tree
+from helpers import kitchen_builder, random_task, run_tree
 
 
 @pytest.fixture(scope="module")
 def kitchen() -> GroundTask:
     """Walk to the fridge, open it, put the milk in; a switch that flips forever."""
     return (
-        DomainBuilder("kitchen")
-        .constants(["self"])
-        .action("Walk(fridge)", pre=["IsStanding(self)"], add=["IsNear(self,fridge)"], cost=15)
-        .action(
-            "Open(fridge)",
-            pre=["IsNear(self,fridge)", "IsClose(fridge)"],
-            add=["IsOpen(fridge)"],
-            delete=["IsClose(fridge)"],
-            cost=3,
-        )
-        .action(
-            "PutIn(milk,fridge)",
-            pre=["IsHolding(self,milk)", "IsNear(self,fridge)", "IsOpen(fridge)"],
-            add=["IsIn(milk,fridge)"],
-            delete=["IsHolding(self,milk)"],
-            cost=10,
-        )
+        kitchen_builder()
         .action("On(lamp)", pre=["IsOff(lamp)"], add=["IsOn(lamp)"], delete=["IsOff(lamp)"])
         .action("Off(lamp)", pre=["IsOn(lamp)"], add=["IsOff(lamp)"], delete=["IsOn(lamp)"])
-        .initial(["IsStanding(self)", "IsClose(fridge)", "IsHolding(self,milk)", "IsOff(lamp)"])
+        .initial(["IsOff(lamp)"])
         .build()
     )
 

@@ -10,35 +10,15 @@ from hbtp.bt import Action, Condition, Fallback, Node, Sequence, tick, tree_of
 from hbtp.bt.compact import compact
 from hbtp.bt.verify import Branch, flatten, path_text, verify
 from hbtp.datasets import load_dataset
-from hbtp.domains import DomainBuilder, Scenario
+from hbtp.domains import Scenario
 from hbtp.logic.task import GroundTask
 from hbtp.planning import hints_from_names, plan
+from helpers import kitchen_builder
 
 
 @pytest.fixture(scope="module")
 def kitchen() -> GroundTask:
-    return (
-        DomainBuilder("kitchen")
-        .constants(["self"])
-        .action("Walk(fridge)", pre=["IsStanding(self)"], add=["IsNear(self,fridge)"], cost=15)
-        .action(
-            "Open(fridge)",
-            pre=["IsNear(self,fridge)", "IsClose(fridge)"],
-            add=["IsOpen(fridge)"],
-            delete=["IsClose(fridge)"],
-            cost=3,
-        )
-        .action(
-            "PutIn(milk,fridge)",
-            pre=["IsHolding(self,milk)", "IsNear(self,fridge)", "IsOpen(fridge)"],
-            add=["IsIn(milk,fridge)"],
-            delete=["IsHolding(self,milk)"],
-            cost=10,
-        )
-        .action("Sing(self)", pre=["IsStanding(self)"], add=["IsHappy(self)"])
-        .initial(["IsStanding(self)", "IsClose(fridge)", "IsHolding(self,milk)"])
-        .build()
-    )
+    return kitchen_builder().action("Sing(self)", pre=["IsStanding(self)"], add=["IsHappy(self)"]).build()
 
 
 def _ids(task: GroundTask, *names: str) -> frozenset[int]:

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from hbtp.domains import DomainBuilder, Scenario
+from hbtp.domains import Scenario
 from hbtp.errors import InputError, UnknownSymbolError
 from hbtp.logic import Atom, GroundAction, GroundTask
+from helpers import kitchen_builder
 
 
 def _action(pre: set[int], add: set[int], delete: set[int], cost: int = 1) -> GroundAction:
@@ -16,28 +17,7 @@ def _action(pre: set[int], add: set[int], delete: set[int], cost: int = 1) -> Gr
 @pytest.fixture
 def kitchen() -> GroundTask:
     """Walk to the fridge, open it, put the milk in; a lamp nothing can switch on."""
-    return (
-        DomainBuilder("kitchen")
-        .constants(["self"])
-        .action("Walk(fridge)", pre=["IsStanding(self)"], add=["IsNear(self,fridge)"], cost=15)
-        .action(
-            "Open(fridge)",
-            pre=["IsNear(self,fridge)", "IsClose(fridge)"],
-            add=["IsOpen(fridge)"],
-            delete=["IsClose(fridge)"],
-            cost=3,
-        )
-        .action(
-            "PutIn(milk,fridge)",
-            pre=["IsHolding(self,milk)", "IsNear(self,fridge)", "IsOpen(fridge)"],
-            add=["IsIn(milk,fridge)"],
-            delete=["IsHolding(self,milk)"],
-            cost=10,
-        )
-        .action("Wait(lamp)", pre=["IsSwitchedOn(lamp)"], add=["IsSeen(lamp)"])
-        .initial(["IsStanding(self)", "IsClose(fridge)", "IsHolding(self,milk)"])
-        .build()
-    )
+    return kitchen_builder().action("Wait(lamp)", pre=["IsSwitchedOn(lamp)"], add=["IsSeen(lamp)"]).build()
 
 
 def _state(task: GroundTask, *names: str) -> frozenset[int]:
