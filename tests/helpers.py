@@ -18,8 +18,10 @@ from typing import Any
 from hbtp.bt import Condition, Fallback, Node, NodeStatus, tick
 from hbtp.bt.btcpp import used_node_ids
 from hbtp.bt.verify import verify
-from hbtp.domains import DomainBuilder
+from hbtp.domains import DomainBuilder, load_scenario
 from hbtp.logic.task import Goal, GroundTask
+from hbtp.planning import plan
+from hbtp.planning.result import PlanResult
 
 LOCATIONS = ("l0", "l1", "l2")
 
@@ -267,3 +269,15 @@ def kitchen_builder() -> DomainBuilder:
         )
         .initial(["IsStanding(self)", "IsClose(fridge)", "IsHolding(self,milk)"])
     )
+
+
+def plan_goals(goals: dict[str, Sequence[str]]) -> dict[tuple[str, str], tuple[GroundTask, PlanResult]]:
+    """OBTEA (landmark heuristic) for each scenario's goals: {(scenario, goal): (task, result)}."""
+    results = {}
+    for scenario, names in goals.items():
+        loaded = load_scenario(scenario)
+        for goal in names:
+            result = plan(loaded.task, goal, "obtea", mutexes=loaded.mutexes, heuristic="lm")
+            assert result.solved, (scenario, goal)
+            results[scenario, goal] = (loaded.task, result)
+    return results

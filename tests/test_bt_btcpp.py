@@ -15,7 +15,7 @@ from hbtp.errors import InputError
 from hbtp.logic.task import GroundTask
 from hbtp.planning import plan
 from hbtp.planning.result import PlanResult
-from helpers import SymbolicEngine, run_tree, without_ports
+from helpers import SymbolicEngine, plan_goals, run_tree, without_ports
 
 GOALS = {
     "robowaiter": ("On_Water_Table1", "On_Dessert_Bar & Low_ACTemperature"),
@@ -35,14 +35,7 @@ WRITER_OPTIONS: list[dict[str, Any]] = [
 
 @pytest.fixture(scope="module")
 def planned() -> dict[tuple[str, str], tuple[GroundTask, PlanResult]]:
-    results = {}
-    for scenario, goals in GOALS.items():
-        loaded = load_scenario(scenario)
-        for goal in goals:
-            result = plan(loaded.task, goal, "obtea", mutexes=loaded.mutexes, heuristic="lm")
-            assert result.solved, (scenario, goal)
-            results[scenario, goal] = (loaded.task, result)
-    return results
+    return plan_goals(GOALS)
 
 
 @pytest.fixture(scope="module")

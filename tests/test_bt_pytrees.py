@@ -13,6 +13,7 @@ from hbtp.domains import load_scenario
 from hbtp.logic.task import GroundTask
 from hbtp.planning import plan
 from hbtp.planning.result import PlanResult
+from helpers import plan_goals
 
 GOALS = {
     "robowaiter": ("On_Water_Table1", "On_Dessert_Bar & Low_ACTemperature"),
@@ -25,14 +26,7 @@ CASES = [(scenario, goal, kind) for scenario, goals in GOALS.items() for goal in
 
 @pytest.fixture(scope="module")
 def planned() -> dict[tuple[str, str], tuple[GroundTask, PlanResult]]:
-    results = {}
-    for scenario, goals in GOALS.items():
-        loaded = load_scenario(scenario)
-        for goal in goals:
-            result = plan(loaded.task, goal, "obtea", mutexes=loaded.mutexes, heuristic="lm")
-            assert result.solved, (scenario, goal)
-            results[scenario, goal] = (loaded.task, result)
-    return results
+    return plan_goals(GOALS)
 
 
 @pytest.mark.parametrize(("scenario", "goal", "kind"), CASES)

@@ -21,7 +21,7 @@ from hbtp.bench.results import ResultsFile, mean, median, write_json
 from hbtp.datasets import load_dataset, validate_records
 from hbtp.domains import load_scenario
 from hbtp.domains.scale import scaled_scenario
-from hbtp.planning import Limits, hints_from_names, plan
+from hbtp.planning import Limits, hints_from_record, plan
 from hbtp.planning.heuristics import HeuristicName
 
 DATASET = "table1_robothow_100"
@@ -65,11 +65,7 @@ def run_fig3(config: Fig3Config, out: Path, *, progress: bool = True) -> dict[st
                     bar.update(1)
                     continue
                 hinted = config.space == "pruned" or planner in HINTED
-                hints = (
-                    hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
-                    if hinted
-                    else None
-                )
+                hints = hints_from_record(record) if hinted else None
                 result = plan(
                     scenario.task,
                     record.goal,

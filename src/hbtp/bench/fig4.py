@@ -24,7 +24,15 @@ from hbtp.bench.results import ResultsFile, mean, write_json
 from hbtp.datasets import load_dataset, validate_records
 from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
-from hbtp.planning import Hints, Limits, hints_from_names, planner_config, pruned_action_space, resolve_hints, search
+from hbtp.planning import (
+    Hints,
+    Limits,
+    hints_from_record,
+    planner_config,
+    pruned_action_space,
+    resolve_hints,
+    search,
+)
 from hbtp.planning.result import PlanResult
 
 DATASET = "table1_robothow_100"
@@ -78,7 +86,7 @@ def run_fig4(config: Fig4Config, out: Path, *, progress: bool = True) -> dict[st
     for (record, planner, correct, error, seed), key in zip(work, keys, strict=True):
         if key not in results:
             if record.id not in spaces:
-                truth = hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
+                truth = hints_from_record(record)
                 spaces[record.id] = task.restricted(pruned_action_space(task, resolve_hints(task, truth)))
             space = spaces[record.id]
             path = noisy_path(record, [a.signature.underscored for a in space], correct, error, seed)

@@ -27,7 +27,7 @@ from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
 from hbtp.domains import Scenario, load_scenario
 from hbtp.errors import InputError
-from hbtp.planning import PLANNERS, Limits, PlanResult, hints_from_names, plan
+from hbtp.planning import PLANNERS, Limits, PlanResult, hints_from_record, plan
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
 
 log = logging.getLogger(__name__)
@@ -65,7 +65,7 @@ def plan_record(
 
     Returns the result and a label of the configuration that produced it.
     """
-    hints = hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
+    hints = hints_from_record(record)
     limits = Limits(time_s=time_limit)
     result = plan(
         scenario.task,

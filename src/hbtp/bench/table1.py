@@ -14,7 +14,7 @@ from hbtp.bench.results import ResultsFile, mean, median, write_json
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
-from hbtp.planning import Limits, hints_from_names, plan
+from hbtp.planning import Limits, hints_from_record, plan
 from hbtp.planning.heuristics import HeuristicName
 from hbtp.planning.result import Status
 
@@ -88,11 +88,7 @@ def _key(record: Record, planner: str, config: Table1Config) -> tuple[Any, ...]:
 
 
 def _run_one(scenario: Any, record: Record, planner: str, config: Table1Config) -> dict[str, Any]:
-    hints = (
-        hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
-        if config.hints == "oracle"
-        else None
-    )
+    hints = hints_from_record(record) if config.hints == "oracle" else None
     space: Literal["full", "pruned"] = config.space if hints is not None else "full"
     result = plan(
         scenario.task,

@@ -22,14 +22,10 @@ from hbtp.llm.pool import example_pool
 from hbtp.llm.prompt import RETRIEVALS, PromptOptions
 from hbtp.logic.task import Goal
 from hbtp.pipeline import LoopOptions, LoopResult, run_hbtp
-from hbtp.planning import PLANNER_DESCRIPTIONS, PLANNERS, Hints, Limits, hints_from_names, plan
+from hbtp.planning import PLANNER_DESCRIPTIONS, PLANNERS, Hints, Limits, hints_from_record, plan
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
 from hbtp.planning.oracle import oracle_hints
 from hbtp.planning.result import PlanResult
-
-
-def hints_from_record(record: Record) -> Hints:
-    return hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
 
 
 def load_hints(source: str, loaded: Scenario, goal: Goal, limits: Limits) -> Hints | None:

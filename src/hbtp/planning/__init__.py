@@ -1,6 +1,13 @@
 """Planning: the backward search core, the four planners, hints and action-space pruning."""
 
-from hbtp.planning.hints import Hints, ResolvedHints, hints_from_names, pruned_action_space, resolve_hints
+from hbtp.planning.hints import (
+    Hints,
+    ResolvedHints,
+    hints_from_names,
+    hints_from_record,
+    pruned_action_space,
+    resolve_hints,
+)
 from hbtp.planning.limits import Limits
 from hbtp.planning.planners import PLANNER_DESCRIPTIONS, PLANNERS, plan, planner_config
 from hbtp.planning.result import Expansion, PlanResult, SearchStats, Status
@@ -18,6 +25,7 @@ __all__ = [
     "SearchStats",
     "Status",
     "hints_from_names",
+    "hints_from_record",
     "plan",
     "planner_config",
     "pruned_action_space",

@@ -12,6 +12,7 @@ from collections import Counter
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+from hbtp.datasets.records import Record
 from hbtp.errors import InputError
 from hbtp.logic.atoms import parse_atom
 from hbtp.logic.task import GroundTask
@@ -96,3 +97,8 @@ def hints_from_names(path: Iterable[str] = (), predicates: Iterable[str] = (), o
         except InputError:
             normalised.append(name.strip())
     return Hints(tuple(normalised), tuple(p.strip() for p in predicates), tuple(o.strip() for o in objects))
+
+
+def hints_from_record(record: Record) -> Hints:
+    """A dataset record's plan, vital predicates and objects as hints (the oracle of the benchmarks)."""
+    return hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
