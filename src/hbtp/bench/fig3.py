@@ -10,15 +10,18 @@ grouped by the length of the optimal path |p*|.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from tqdm import tqdm
-
+from hbtp.bench.plots import plot_fig3
+from hbtp.bench.report import fig3_section, write_report
 from hbtp.bench.results import ResultsFile, mean, median, write_json
+from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, run_work
 from hbtp.datasets import load_dataset, validate_records
+from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
 from hbtp.domains.scale import scaled_scenario
 from hbtp.planning import Limits, hints_from_record, plan
@@ -39,65 +42,85 @@ class Fig3Config:
     limit: int | None = 20
 
 
-def run_fig3(config: Fig3Config, out: Path, *, progress: bool = True) -> dict[str, Any]:
+@dataclass(frozen=True)
+class Fig3Run:
+    """One planner on one task at one scale (the spec a worker runs)."""
+
+    scale: float
+    record: Record
+    planner: str
+    space: Literal["full", "pruned"]
+    heuristic: HeuristicName
+    time_limit: float
+
+
+def run_fig3(config: Fig3Config, out: Path, execution: Execution = DEFAULT_EXECUTION) -> dict[str, Any]:
     """Run (or resume) Figure 3 into ``out``; returns the summary (also summary.json, fig3.png)."""
     base = load_scenario("robothow")
     records = load_dataset(DATASET)
     invalid = set(validate_records(records, base.task).invalid_ids)
     records = [r for r in records if r.id not in invalid][: config.limit]
     results = ResultsFile(out / "results.jsonl", KEY)
-    keys = [
-        (scale, r.id, planner, config.space, config.heuristic)
+    work = [
+        Work(
+            (scale, record.id, planner, config.space, config.heuristic),
+            Fig3Run(scale, record, planner, config.space, config.heuristic, config.time_limit),
+            {
+                "scale": scale,
+                "task": record.id,
+                "p_star": len(record.optimal_actions),
+                "planner": planner,
+                "space": config.space,
+                "heuristic": config.heuristic,
+                "explored": None,
+            },
+        )
         for scale in config.scales
-        for r in records
+        for record in records
         for planner in config.planners
     ]
-    bar = tqdm(total=len(keys), desc="fig3", disable=not progress, unit="run")
-    for scale in config.scales:
-        mine = [k for k in keys if k[0] == scale]
-        if all(k in results for k in mine):
-            bar.update(len(mine))
-            continue
-        scenario = scaled_scenario("robothow", scale)
-        for record in records:
-            for planner in config.planners:
-                if (scale, record.id, planner, config.space, config.heuristic) in results:
-                    bar.update(1)
-                    continue
-                hinted = config.space == "pruned" or planner in HINTED
-                hints = hints_from_record(record) if hinted else None
-                result = plan(
-                    scenario.task,
-                    record.goal,
-                    planner,
-                    hints=hints,
-                    space=config.space,
-                    mutexes=scenario.mutexes,
-                    heuristic=config.heuristic,
-                    limits=Limits(time_s=config.time_limit),
-                )
-                results.append(
-                    {
-                        "scale": scale,
-                        "actions": len(scenario.task.actions),
-                        "task": record.id,
-                        "p_star": len(record.optimal_actions),
-                        "planner": planner,
-                        "space": config.space,
-                        "heuristic": config.heuristic,
-                        "action_space": result.stats.action_space,
-                        "status": result.status.value,
-                        "solved": result.solved,
-                        "explored": result.stats.explored,
-                        "time_s": round(result.stats.time_s, 6),
-                    }
-                )
-                bar.update(1)
-    bar.close()
-    summary = summarise(list(results.ordered(keys)), config)
+    # Generating a scaled scenario takes seconds: allow for it in the hard limit.
+    run_work(run_one, work, results, execution, kill_after=2 * config.time_limit + 300.0, description="fig3")
+    summary = summarise(list(results.ordered(w.key for w in work)), config)
     write_json(out / "summary.json", summary)
     plot_fig3(summary, out / "fig3.png")
+    write_report(out / "report.md", "Figure 3", [fig3_section(summary)])
     return summary
+
+
+#: The scaled scenarios a process has built (the runs come ordered by scale).
+_scaled = functools.lru_cache(maxsize=2)(scaled_scenario)
+
+
+def run_one(run: Fig3Run) -> dict[str, Any]:
+    """Plan one task in RobotHow grown ``run.scale`` times."""
+    scenario = _scaled("robothow", run.scale)
+    record = run.record
+    hinted = run.space == "pruned" or run.planner in HINTED
+    result = plan(
+        scenario.task,
+        record.goal,
+        run.planner,
+        hints=hints_from_record(record) if hinted else None,
+        space=run.space,
+        mutexes=scenario.mutexes,
+        heuristic=run.heuristic,
+        limits=Limits(time_s=run.time_limit),
+    )
+    return {
+        "scale": run.scale,
+        "actions": len(scenario.task.actions),
+        "task": record.id,
+        "p_star": len(record.optimal_actions),
+        "planner": run.planner,
+        "space": run.space,
+        "heuristic": run.heuristic,
+        "action_space": result.stats.action_space,
+        "status": result.status.value,
+        "solved": result.solved,
+        "explored": result.stats.explored,
+        "time_s": round(result.stats.time_s, 6),
+    }
 
 
 def summarise(rows: Sequence[dict[str, Any]], config: Fig3Config) -> dict[str, Any]:
@@ -110,7 +133,7 @@ def summarise(rows: Sequence[dict[str, Any]], config: Fig3Config) -> dict[str, A
             by_size.append(
                 {
                     "scale": scale,
-                    "actions": mine[0]["actions"],
+                    "actions": next((r["actions"] for r in mine if "actions" in r), None),
                     "planner": planner,
                     "tasks": len(mine),
                     "solved": sum(r["solved"] for r in mine),
@@ -145,31 +168,3 @@ def summarise(rows: Sequence[dict[str, Any]], config: Fig3Config) -> dict[str, A
         "by_action_space": by_size,
         "by_path_length": by_length,
     }
-
-
-def plot_fig3(summary: dict[str, Any], path: Path) -> bool:
-    """Time against |A| and against |p*| per planner, if matplotlib (the plot extra) is installed."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        return False
-    figure, (left, right) = plt.subplots(1, 2, figsize=(11, 3.8))
-    for planner in summary["config"]["planners"]:
-        points = [(c["actions"], c["mean_time_s"]) for c in summary["by_action_space"] if c["planner"] == planner]
-        left.plot([x for x, _ in points], [y for _, y in points], marker="o", label=planner)
-        points = [(c["p_star"], c["mean_time_s"]) for c in summary["by_path_length"] if c["planner"] == planner]
-        right.plot([x for x, _ in points], [y for _, y in points], marker="o", label=planner)
-    space = summary["config"]["space"]
-    left.set(title=f"(a) time vs |A| ({space} space)", xlabel="grounded actions |A|", ylabel="mean time (s)")
-    right.set(title="(b) time vs |p*| (1x)", xlabel="optimal path length |p*|", ylabel="mean time (s)")
-    for axis in (left, right):
-        axis.set_yscale("log")
-        axis.legend()
-    figure.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(path, dpi=110)
-    plt.close(figure)
-    return True

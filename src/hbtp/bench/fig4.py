@@ -11,6 +11,7 @@ Each planner reports |S⁻| and D(T). Seeded per (task, rates, seed): reruns giv
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import random
 from collections.abc import Sequence
@@ -18,9 +19,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from tqdm import tqdm
-
+from hbtp.bench.plots import plot_fig4
+from hbtp.bench.report import fig4_section, write_report
 from hbtp.bench.results import ResultsFile, mean, write_json
+from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, run_work
 from hbtp.datasets import load_dataset, validate_records
 from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
@@ -63,7 +65,19 @@ def noisy_path(record: Record, candidates: Sequence[str], correct: float, error:
     return path
 
 
-def run_fig4(config: Fig4Config, out: Path, *, progress: bool = True) -> dict[str, Any]:
+@dataclass(frozen=True)
+class Fig4Run:
+    """One planner with one noisy heuristic path on one task (the spec a worker runs)."""
+
+    record: Record
+    planner: str
+    correct: float
+    error: float
+    seed: int
+    time_limit: float
+
+
+def run_fig4(config: Fig4Config, out: Path, execution: Execution = DEFAULT_EXECUTION) -> dict[str, Any]:
     """Run (or resume) Figure 4 into ``out``; returns the summary (also summary.json, and fig4.png
     when matplotlib is installed)."""
     scenario = load_scenario(SCENARIO)
@@ -72,40 +86,56 @@ def run_fig4(config: Fig4Config, out: Path, *, progress: bool = True) -> dict[st
     records = [r for r in records if r.id not in invalid][: config.limit]
     results = ResultsFile(out / "results.jsonl", KEY)
     work = [
-        (record, planner, correct, error, seed)
+        Work(
+            (record.id, planner, correct, error, seed),
+            Fig4Run(record, planner, correct, error, seed, config.time_limit),
+            {
+                "task": record.id,
+                "planner": planner,
+                "correct": correct,
+                "error": error,
+                "seed": seed,
+                "explored": None,
+                "cost": None,
+            },
+        )
         for record in records
         for correct in config.correct_rates
         for error in config.error_rates
         for seed in range(config.seeds)
         for planner in config.planners
     ]
-    keys = [(r.id, p, c, e, s) for r, p, c, e, s in work]
-    task = scenario.task
-    spaces: dict[str, tuple[Any, ...]] = {}
-    bar = tqdm(total=len(work), desc="fig4", disable=not progress, unit="run")
-    for (record, planner, correct, error, seed), key in zip(work, keys, strict=True):
-        if key not in results:
-            if record.id not in spaces:
-                truth = hints_from_record(record)
-                spaces[record.id] = task.restricted(pruned_action_space(task, resolve_hints(task, truth)))
-            space = spaces[record.id]
-            path = noisy_path(record, [a.signature.underscored for a in space], correct, error, seed)
-            result = search(
-                task,
-                task.resolve_goal(record.goal),
-                space,
-                planner_config(planner),
-                mutexes=scenario.mutexes,
-                hints=resolve_hints(task, Hints(tuple(path))),
-                limits=Limits(time_s=config.time_limit),
-            )
-            results.append(_row(record, planner, correct, error, seed, path, result))
-        bar.update(1)
-    bar.close()
-    summary = summarise(list(results.ordered(keys)), config)
+    run_work(run_one, work, results, execution, kill_after=2 * config.time_limit + 60.0, description="fig4")
+    summary = summarise(list(results.ordered(w.key for w in work)), config)
     write_json(out / "summary.json", summary)
     plot_fig4(summary, out / "fig4.png")
+    write_report(out / "report.md", "Figure 4", [fig4_section(summary)])
     return summary
+
+
+@functools.lru_cache(maxsize=8)
+def _pruned_space(record: Record) -> tuple[Any, ...]:
+    task = load_scenario(SCENARIO).task
+    return task.restricted(pruned_action_space(task, resolve_hints(task, hints_from_record(record))))
+
+
+def run_one(run: Fig4Run) -> dict[str, Any]:
+    """Plan one task with a noisy p̂ in the record's pruned space."""
+    scenario = load_scenario(SCENARIO)
+    task = scenario.task
+    record = run.record
+    space = _pruned_space(record)
+    path = noisy_path(record, [a.signature.underscored for a in space], run.correct, run.error, run.seed)
+    result = search(
+        task,
+        task.resolve_goal(record.goal),
+        space,
+        planner_config(run.planner),
+        mutexes=scenario.mutexes,
+        hints=resolve_hints(task, Hints(tuple(path))),
+        limits=Limits(time_s=run.time_limit),
+    )
+    return _row(record, run.planner, run.correct, run.error, run.seed, path, result)
 
 
 def _row(
@@ -159,34 +189,3 @@ def summarise(rows: Sequence[dict[str, Any]], config: Fig4Config) -> dict[str, A
         },
         "cells": cells,
     }
-
-
-def plot_fig4(summary: dict[str, Any], path: Path) -> bool:
-    """The three panels of the paper's Figure 4, if matplotlib (the plot extra) is installed."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        return False
-    cells = summary["cells"]
-    figure, axes = plt.subplots(1, 3, figsize=(13, 3.6))
-    panels = [("hbtp-o", "mean_explored", "HBTP-O |S⁻|"), ("hbtp-s", "mean_explored", "HBTP-S |S⁻|")]
-    for axis, (planner, field, title) in zip(axes[:2], panels, strict=True):
-        for error in summary["config"]["error_rates"]:
-            points = [(c["correct"], c[field]) for c in cells if c["planner"] == planner and c["error"] == error]
-            axis.plot([x for x, _ in points], [y for _, y in points], marker="o", label=f"ER={error}")
-        axis.set(title=title, xlabel="correct rate of p̂", ylabel="explored conditions")
-        axis.legend()
-    for planner in summary["config"]["planners"]:
-        for error in summary["config"]["error_rates"]:
-            points = [(c["correct"], c["mean_cost"]) for c in cells if c["planner"] == planner and c["error"] == error]
-            axes[2].plot([x for x, _ in points], [y for _, y in points], marker=".", label=f"{planner} ER={error}")
-    axes[2].set(title="D(T)", xlabel="correct rate of p̂", ylabel="cost of the executed actions")
-    axes[2].legend(fontsize=7)
-    figure.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(path, dpi=110)
-    plt.close(figure)
-    return True

@@ -14,19 +14,24 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from tqdm import tqdm
-
+from hbtp.bench.plots import plot_robustness
+from hbtp.bench.report import robustness_section, write_report
 from hbtp.bench.results import ResultsFile, mean, write_json
+from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, run_work
 from hbtp.bt import tree_of
 from hbtp.bt.compact import measure
 from hbtp.bt.disturb import perturbation_stats
+from hbtp.bt.nodes import Node, tick
+from hbtp.bt.simulate import simulate
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
 from hbtp.domains import Scenario, load_scenario
 from hbtp.errors import InputError
+from hbtp.logic.task import GroundTask
 from hbtp.planning import PLANNERS, Limits, PlanResult, hints_from_record, plan
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
 
@@ -98,7 +103,7 @@ def run_robustness(
     seed: int = 0,
     scenarios: Sequence[str] = SCENARIOS,
     limit: int | None = None,
-    progress: bool = True,
+    execution: Execution = DEFAULT_EXECUTION,
     max_ticks: int = MAX_TICKS,
     planner: str = "hbtp-s",
     heuristic: HeuristicName = "lm",
@@ -125,25 +130,41 @@ def run_robustness(
     p_values = tuple(float(p) for p in p_values)
     started = time.perf_counter()
     results = ResultsFile(out / "results.jsonl", KEY)
-    work = [(name, record) for name in scenarios for record in load_dataset(dataset_of(name))[:limit]]
-    keys: list[tuple[Any, ...]] = []
-    bar = tqdm(total=len(work), desc="robustness", disable=not progress, unit="task")
-    loaded: dict[str, Scenario] = {}
-    for name, record in work:
-        mine = [
-            (name, record.id, planner, heuristic, robust, p, kind, runs, seed, max_ticks)
-            for p in p_values
-            for kind in TREES
-        ]
-        keys.extend(mine)
-        if any(key not in results for key in mine):
-            if name not in loaded:
-                loaded[name] = load_scenario(name)
-            for row in _run_task(loaded[name], record, p_values, runs, seed, max_ticks, planner, heuristic, robust):
-                if results.key(row) not in results:
-                    results.append(row)
-        bar.update(1)
-    bar.close()
+    work = [
+        Work(
+            (name, record.id),
+            RobustnessRun(name, record, p_values, runs, seed, max_ticks, planner, heuristic, robust),
+            tuple(
+                {
+                    "scenario": name,
+                    "dataset": dataset_of(name),
+                    "task": record.id,
+                    "goal": record.goal.strip(),
+                    "planner": planner,
+                    "heuristic": heuristic,
+                    "robust": robust,
+                    "p": p,
+                    "tree": kind,
+                    "runs": runs,
+                    "seed": seed,
+                    "max_ticks": max_ticks,
+                    "planned_with": "killed",
+                    "explored": None,
+                    "nodes": None,
+                    "success_rate": 0.0,
+                    "successes": 0,
+                    "mean_extra_ticks": None,
+                    "mean_extra_cost": None,
+                }
+                for p in p_values
+                for kind in TREES
+            ),
+        )
+        for name in scenarios
+        for record in load_dataset(dataset_of(name))[:limit]
+    ]
+    keys = [results.key(row) for item in work for row in item.rows]
+    run_work(run_one, work, results, execution, kill_after=2 * TIME_LIMIT + 120.0, description="robustness")
     summary = summarise(list(results.ordered(keys)), scenarios, p_values)
     summary["config"] = {
         "p_values": list(p_values),
@@ -158,7 +179,32 @@ def run_robustness(
     }
     summary["elapsed_s"] = round(time.perf_counter() - started, 3)
     write_json(out / "summary.json", summary)
+    plot_robustness(summary, out / "robustness.png")
+    write_report(out / "report.md", "Robustness", [robustness_section(summary)])
     return summary
+
+
+@dataclass(frozen=True)
+class RobustnessRun:
+    """One task: plan it, then run both trees under perturbations (the spec a worker runs)."""
+
+    scenario: str
+    record: Record
+    p_values: tuple[float, ...]
+    runs: int
+    seed: int
+    max_ticks: int
+    planner: str
+    heuristic: HeuristicName
+    robust: int
+
+
+def run_one(run: RobustnessRun) -> list[dict[str, Any]]:
+    """The rows of one task: one per (p, tree)."""
+    return _run_task(
+        load_scenario(run.scenario), run.record, run.p_values, run.runs, run.seed, run.max_ticks, run.planner,
+        run.heuristic, run.robust,
+    )  # fmt: skip
 
 
 def _run_task(
@@ -198,8 +244,9 @@ def _run_task(
     for kind in TREES:
         tree = tree_of(result, kind) if result.solved else None
         size = measure(tree) if tree is not None else None
+        checks = condition_checks(tree, task, max_ticks) if tree is not None else None
         for p in p_values:
-            row = {**base, "p": p, "tree": kind, "nodes": size.nodes if size else None}
+            row = {**base, "p": p, "tree": kind, "nodes": size.nodes if size else None, "condition_checks": checks}
             if tree is None:
                 row.update({"success_rate": 0.0, "successes": 0, "mean_extra_ticks": None, "mean_extra_cost": None})
             else:
@@ -218,6 +265,13 @@ def _run_task(
                 row.update(stats)
             rows.append(row)
     return rows
+
+
+def condition_checks(tree: Node, task: GroundTask, max_ticks: int) -> int:
+    """Condition nodes ticked in the undisturbed run from s0 (BTPG's tick count)."""
+    checks = [0]
+    simulate(tree, task, max_ticks=max_ticks, ticker=lambda state: tick(tree, state, task, checks))
+    return checks[0]
 
 
 def summarise(rows: Sequence[dict[str, Any]], scenarios: Sequence[str], p_values: Sequence[float]) -> dict[str, Any]:
@@ -242,6 +296,10 @@ def summarise(rows: Sequence[dict[str, Any]], scenarios: Sequence[str], p_values
                     "mean_extra_cost": mean([r["mean_extra_cost"] for r in chosen if r["mean_extra_cost"] is not None]),
                     "mean_events": mean([r["mean_events"] for r in chosen if r.get("mean_events") is not None]),
                     "mean_nodes": mean([r["nodes"] for r in chosen if r["nodes"] is not None]),
+                    "mean_base_ticks": mean([r["base_ticks"] for r in chosen if r.get("base_ticks") is not None]),
+                    "mean_condition_checks": mean(
+                        [r["condition_checks"] for r in chosen if r.get("condition_checks") is not None]
+                    ),
                 }
             pairs = _pairs(at_p)
             entry["full_better"] = sum(f > q for f, q in pairs)

@@ -8,9 +8,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from tqdm import tqdm
-
+from hbtp.bench.plots import plot_table1
+from hbtp.bench.report import table1_section, write_report
 from hbtp.bench.results import ResultsFile, mean, median, write_json
+from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, run_work
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
@@ -65,48 +66,87 @@ class Table1Config:
     limit: int | None = None  # only the first N tasks
 
 
-def run_table1(config: Table1Config, out: Path, *, progress: bool = True) -> dict[str, Any]:
+@dataclass(frozen=True)
+class Table1Run:
+    """One planner on one task (the spec a worker runs)."""
+
+    record: Record
+    planner: str
+    space: Literal["full", "pruned"]
+    hints: Literal["oracle", "none"]
+    heuristic: HeuristicName
+    time_limit: float
+
+
+def run_table1(config: Table1Config, out: Path, execution: Execution = DEFAULT_EXECUTION) -> dict[str, Any]:
     """Run (or resume) Table I into ``out``; returns the summary (also written to summary.json)."""
-    scenario = load_scenario(SCENARIO)
     records = load_dataset(DATASET)[: config.limit]
     results = ResultsFile(out / "results.jsonl", KEY)
-    todo = [(record, planner) for record in records for planner in config.planners]
-    keys = [_key(record, planner, config) for record, planner in todo]
-    pending = [(r, p) for (r, p), k in zip(todo, keys, strict=True) if k not in results]
-    bar = tqdm(total=len(todo), initial=len(todo) - len(pending), desc="table1", disable=not progress, unit="run")
-    for record, planner in pending:
-        results.append(_run_one(scenario, record, planner, config))
-        bar.update(1)
-    bar.close()
-    summary = summarise(list(results.ordered(keys)), config)
+    work = [
+        Work(
+            (record.id, planner, config.space, config.hints, config.heuristic),
+            Table1Run(record, planner, config.space, config.hints, config.heuristic, config.time_limit),
+            {
+                "task": record.id,
+                "planner": planner,
+                "space": config.space,
+                "hints": config.hints,
+                "heuristic": config.heuristic,
+                "p_star": len(record.optimal_actions),
+                "explored": None,
+                "cost": None,
+            },
+        )
+        for record in records
+        for planner in config.planners
+    ]
+    run_work(run_one, work, results, execution, kill_after=kill_after(config.time_limit), description="table1")
+    summary = summarise(list(results.ordered(w.key for w in work)), config)
     write_json(out / "summary.json", summary)
+    write_table1_report(out, {setting_label(config): summary})
     return summary
 
 
-def _key(record: Record, planner: str, config: Table1Config) -> tuple[Any, ...]:
-    return (record.id, planner, config.space, config.hints, config.heuristic)
+def setting_label(config: Table1Config) -> str:
+    """``pruned space, oracle hints`` or ``full space, no hints, heuristic lm``."""
+    label = f"{config.space} space, {'oracle hints' if config.hints == 'oracle' else 'no hints'}"
+    return label + (f", heuristic {config.heuristic}" if config.heuristic != "none" else "")
 
 
-def _run_one(scenario: Any, record: Record, planner: str, config: Table1Config) -> dict[str, Any]:
-    hints = hints_from_record(record) if config.hints == "oracle" else None
-    space: Literal["full", "pruned"] = config.space if hints is not None else "full"
+def write_table1_report(out: Path, summaries: dict[str, dict[str, Any]]) -> None:
+    """``report.md`` and ``table1.png`` for one or more Table I settings."""
+    write_report(out / "report.md", "Table I", [table1_section(summaries)])
+    plot_table1(summaries, out / "table1.png")
+
+
+def kill_after(time_limit: float) -> float:
+    """The default hard limit of a planning run: its own limit, plus loading and generous slack."""
+    return 2 * time_limit + 60.0
+
+
+def run_one(run: Table1Run) -> dict[str, Any]:
+    """Plan one Table I task (in a worker; the scenario is loaded once per process)."""
+    scenario = load_scenario(SCENARIO)
+    record = run.record
+    hints = hints_from_record(record) if run.hints == "oracle" else None
+    space: Literal["full", "pruned"] = run.space if hints is not None else "full"
     result = plan(
         scenario.task,
         record.goal,
-        planner,
+        run.planner,
         hints=hints,
         space=space,
         mutexes=scenario.mutexes,
-        heuristic=config.heuristic,
-        limits=Limits(time_s=config.time_limit),
+        heuristic=run.heuristic,
+        limits=Limits(time_s=run.time_limit),
     )
     return {
         "task": record.id,
         "goal": record.goal.strip(),
-        "planner": planner,
-        "space": config.space,
-        "hints": config.hints,
-        "heuristic": config.heuristic,
+        "planner": run.planner,
+        "space": run.space,
+        "hints": run.hints,
+        "heuristic": run.heuristic,
         "status": result.status.value,
         "solved": result.solved,
         "cost": result.cost,
@@ -126,7 +166,8 @@ def summarise(rows: Sequence[dict[str, Any]], config: Table1Config) -> dict[str,
         planners[planner] = {
             "tasks": len(mine),
             "solved": len(solved),
-            "timeouts": sum(r["status"] == Status.TIMEOUT.value for r in mine),
+            "timeouts": sum(r["status"] in (Status.TIMEOUT.value, "killed") for r in mine),
+            "killed": sum(r["status"] == "killed" for r in mine),
             "mean_explored": mean([r["explored"] for r in solved]),
             "mean_cost": mean([r["cost"] for r in solved]),
             "mean_time_s": mean([r["time_s"] for r in mine]),

@@ -10,23 +10,30 @@ example pool).
 
 from __future__ import annotations
 
+import functools
 import logging
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
-from tqdm import tqdm
-
+from hbtp.bench.plots import plot_table2
+from hbtp.bench.report import table2_section, write_report
 from hbtp.bench.results import ResultsFile, mean, write_json
+from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, run_work
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
 from hbtp.domains.scenarios import Scenario
+from hbtp.errors import InputError
 from hbtp.llm.backend import Backend
+from hbtp.llm.backends.first_reply import FirstReplyBackend
+from hbtp.llm.backends.registry import BackendOptions, make_backend
 from hbtp.llm.pool import example_pool
 from hbtp.pipeline import LoopOptions, run_hbtp
-from hbtp.pipeline.loop import feedback_rounds_of
+from hbtp.pipeline.loop import LoopResult, feedback_rounds_of
+from hbtp.planning import Limits, hints_from_record, plan, pruned_action_space, release_search_memory, resolve_hints
+from hbtp.planning.heuristics import HeuristicName
 
 log = logging.getLogger(__name__)
 
@@ -65,9 +72,11 @@ class Table2Config:
     runs: int = 1
     limit: int | None = None
     loop: LoopOptions = field(default_factory=lambda: LoopOptions())
+    #: Seconds for the paper's B-Time (OBTEA in the full space, no heuristic); 0 skips it.
+    b_time_limit: float = 10.0
 
 
-def _row(scenario: Scenario, record: Record, backend_name: str, run: int, loop: Any) -> dict[str, Any]:
+def _row(scenario: Scenario, record: Record, backend_name: str, run: int, loop: LoopResult) -> dict[str, Any]:
     rounds = loop.rounds
     success = rounds[-1] if feedback_rounds_of(loop.outcome) is not None else None
     return {
@@ -90,42 +99,166 @@ def _row(scenario: Scenario, record: Record, backend_name: str, run: int, loop: 
     }
 
 
+@dataclass(frozen=True)
+class BackendRecipe:
+    """How a worker builds the LLM backend of a run: ``llm`` (a :data:`BACKENDS` name) with
+    ``options`` (its seed is the run number), optionally behind recorded first-round replies."""
+
+    llm: str | None
+    options: BackendOptions = field(default_factory=BackendOptions)
+    first_replies: tuple[Record, ...] | None = None
+
+    def __post_init__(self) -> None:
+        if self.llm is None and self.first_replies is None:
+            raise InputError("give an LLM backend, recorded first replies, or both")
+
+    def make(self, scenario: Scenario, run: int) -> Backend:
+        inner = make_backend(self.llm, scenario, replace(self.options, seed=run)) if self.llm else None
+        if self.first_replies is not None:
+            return FirstReplyBackend(list(self.first_replies), inner)
+        assert inner is not None
+        return inner
+
+
+@dataclass(frozen=True)
+class Table2Run:
+    """One task of one scenario with one backend (the spec a worker runs)."""
+
+    scenario: str
+    record: Record
+    backend: str
+    recipe: BackendRecipe
+    run: int
+    loop: LoopOptions
+    b_time_limit: float
+
+
+#: Backends built by this process, per (recipe, scenario, run); a worker keeps its model loaded.
+_BACKENDS: dict[tuple[BackendRecipe, str, int], Backend] = {}
+
+
+def _backend(recipe: BackendRecipe, scenario: Scenario, run: int) -> Backend:
+    key = (recipe, scenario.name, run)
+    if key not in _BACKENDS:
+        _BACKENDS[key] = recipe.make(scenario, run)
+    return _BACKENDS[key]
+
+
+def close_backends() -> None:
+    """Close the backends this process built (workers' backends end with their process)."""
+    while _BACKENDS:
+        _, backend = _BACKENDS.popitem()
+        backend.close()
+
+
+@functools.cache
+def _examples(scenario_name: str) -> list[Record]:
+    return example_pool(load_scenario(scenario_name))
+
+
+def run_one(run: Table2Run) -> dict[str, Any]:
+    """The HBTP loop on one task, with the oracle columns and the B-Time baseline."""
+    scenario = load_scenario(run.scenario)
+    record = run.record
+    loop = run_hbtp(scenario, record.goal, _backend(run.recipe, scenario, run.run), _examples(run.scenario), run.loop)
+    row = _row(scenario, record, run.backend, run.run, loop)
+    row.update(oracle_columns(scenario, record))
+    if run.b_time_limit > 0 and run.run == 0:
+        row.update(baseline_columns(scenario, record, run.b_time_limit))
+    return row
+
+
+def oracle_columns(scenario: Scenario, record: Record) -> dict[str, Any]:
+    """|A*| (the action space pruned by the record's own vital predicates and objects, plus its
+    plan) and |p*| (the length of its optimal plan)."""
+    task = scenario.task
+    return {
+        "A_star": len(pruned_action_space(task, resolve_hints(task, hints_from_record(record)))),
+        "p_star": len(record.optimal_actions),
+    }
+
+
+def baseline_columns(scenario: Scenario, record: Record, time_limit: float) -> dict[str, Any]:
+    """B-Time: OBTEA in the full action space without a heuristic (the paper's baseline), and the
+    same with the landmark heuristic (hbtp's default planner)."""
+    row: dict[str, Any] = {}
+    for label, heuristic in (("b", "none"), ("b_lm", "lm")):
+        result = plan(
+            scenario.task,
+            record.goal,
+            "obtea",
+            mutexes=scenario.mutexes,
+            heuristic=cast(HeuristicName, heuristic),
+            limits=Limits(time_s=time_limit),
+        )
+        row[f"{label}_time_s"] = round(result.stats.time_s, 6)
+        row[f"{label}_solved"] = result.solved
+        release_search_memory()
+    return row
+
+
+def kill_after(config: Table2Config, llm_timeout: float) -> float:
+    """A generous hard limit for one task: every round's LLM requests and planning, the fallback
+    and the B-Time runs, and a minute of slack."""
+    loop = config.loop
+    rounds = loop.feedback_rounds + 1
+    llm = rounds * (loop.grammar_retries + 1) * llm_timeout
+    return llm + rounds * loop.round_time_limit + loop.fallback_time_limit + 2 * config.b_time_limit + 60.0
+
+
 def run_table2(
     config: Table2Config,
-    make_backend: Callable[[Scenario, int], Backend],
+    recipe: BackendRecipe,
     out: Path,
-    *,
-    progress: bool = True,
+    execution: Execution = DEFAULT_EXECUTION,
 ) -> dict[str, Any]:
-    """Run (or resume) one scenario's Table II into ``out``; ``make_backend(scenario, run)``."""
+    """Run (or resume) one scenario's Table II into ``out``."""
     scenario = load_scenario(config.scenario)
     dataset = config.dataset or scenario.test_set
     if dataset is None:
-        raise ValueError(f"scenario {scenario.name} has no test set")
+        raise InputError(f"scenario {scenario.name} has no test set")
     records = load_dataset(dataset)[: config.limit]
-    pool = example_pool(scenario)
     loop_options = replace(config.loop, prompt=replace(config.loop.prompt, exclude_same_goal=True))
     results = ResultsFile(out / "results.jsonl", KEY)
-    keys = [(scenario.name, r.id, config.backend, run) for run in range(config.runs) for r in records]
-    pending = [k for k in keys if k not in results]
-    by_id = {r.id: r for r in records}
-    bar = tqdm(total=len(keys), initial=len(keys) - len(pending), desc=f"table2 {scenario.name}", disable=not progress)
-    backends: dict[int, Backend] = {}
+    work = [
+        Work(
+            (scenario.name, record.id, config.backend, run),
+            Table2Run(scenario.name, record, config.backend, recipe, run, loop_options, config.b_time_limit),
+            {
+                "scenario": scenario.name,
+                "task": record.id,
+                "goal": record.goal.strip(),
+                "backend": config.backend,
+                "run": run,
+                "outcome": "failed",
+                "rounds": 0,
+                "errors": ["killed"],
+            },
+        )
+        for run in range(config.runs)
+        for record in records
+    ]
     try:
-        for _, task_id, _, run in pending:
-            backend = backends.get(run)
-            if backend is None:
-                backend = backends[run] = make_backend(scenario, run)
-            loop = run_hbtp(scenario, by_id[task_id].goal, backend, pool, loop_options)
-            results.append(_row(scenario, by_id[task_id], config.backend, run, loop))
-            bar.update(1)
+        run_work(
+            run_one,
+            work,
+            results,
+            execution,
+            kill_after=kill_after(config, recipe.options.timeout),
+            description=f"table2 {scenario.name}",
+        )
     finally:
-        bar.close()
-        for backend in backends.values():
-            backend.close()
-    summary = summarise(list(results.ordered(keys)), scenario, dataset, config)
+        close_backends()
+    summary = summarise(list(results.ordered(w.key for w in work)), scenario, dataset, config)
     write_json(out / "summary.json", summary)
     return summary
+
+
+def write_table2_report(out: Path, summaries: list[dict[str, Any]]) -> None:
+    """``summary.json``, ``report.md`` and ``table2.png`` over the scenarios run into ``out``."""
+    write_json(out / "summary.json", {"scenarios": summaries})
+    write_report(out / "report.md", "Table II", [table2_section(summaries)])
+    plot_table2(summaries, out / "table2.png")
 
 
 def summarise(rows: Sequence[dict[str, Any]], scenario: Scenario, dataset: str, config: Table2Config) -> dict[str, Any]:
@@ -140,6 +273,9 @@ def summarise(rows: Sequence[dict[str, Any]], scenario: Scenario, dataset: str, 
         return round(100.0 * hits / len(rows), 2)
 
     successful = [r for r in rows if feedback_rounds_of(r["outcome"]) is not None]
+    first = [r for r in rows if r["run"] == 0]
+    baseline = [r for r in first if "b_time_s" in r]
+    per_run = {run: [r for r in rows if r["run"] == run] for run in sorted({r["run"] for r in rows})}
     return {
         "scenario": scenario.name,
         "dataset": dataset,
@@ -160,7 +296,19 @@ def summarise(rows: Sequence[dict[str, Any]], scenario: Scenario, dataset: str, 
         "A_minus": mean([r["action_space"] for r in successful]),
         "p_hat": mean([r["p_hat"] for r in successful]),
         "explored": mean([r["explored"] for r in successful]),
-        "mean_planning_s": mean([r["planning_s"] for r in rows]),
-        "mean_llm_s": mean([r["llm_s"] for r in rows]),
+        "mean_planning_s": mean([r["planning_s"] for r in rows if "planning_s" in r]),
+        "mean_llm_s": mean([r["llm_s"] for r in rows if "llm_s" in r]),
+        "killed": sum(r.get("status") == "killed" for r in rows),
+        "NF_per_run": [summarise(mine, scenario, dataset, replace(config, runs=1))["NF"] for mine in per_run.values()]
+        if len(per_run) > 1
+        else None,
+        "A_star": mean([r["A_star"] for r in first if "A_star" in r]),
+        "p_star": mean([r["p_star"] for r in first if "p_star" in r]),
+        "b_time_limit": config.b_time_limit,
+        "b_tasks": len(baseline),
+        "b_solved": sum(r["b_solved"] for r in baseline),
+        "b_mean_time_s": mean([r["b_time_s"] for r in baseline]),
+        "b_lm_solved": sum(r["b_lm_solved"] for r in baseline),
+        "b_lm_mean_time_s": mean([r["b_lm_time_s"] for r in baseline]),
         "paper": PAPER.get(scenario.name, {}),
     }

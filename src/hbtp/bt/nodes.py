@@ -48,9 +48,14 @@ class Fallback:
 Node = Condition | Action | Sequence | Fallback
 
 
-def tick(node: Node, state: State, task: GroundTask) -> tuple[NodeStatus, int | None]:
-    """Tick ``node`` in ``state``: the status and, when RUNNING, the action to apply."""
+def tick(node: Node, state: State, task: GroundTask, checks: list[int] | None = None) -> tuple[NodeStatus, int | None]:
+    """Tick ``node`` in ``state``: the status and, when RUNNING, the action to apply.
+
+    ``checks``, if given, has its first item increased by every condition node ticked (the tick
+    count BTPG reports)."""
     if isinstance(node, Condition):
+        if checks is not None:
+            checks[0] += 1
         return (NodeStatus.SUCCESS if node.literals <= state else NodeStatus.FAILURE), None
     if isinstance(node, Action):
         if task.actions[node.action].pre <= state:
@@ -58,7 +63,7 @@ def tick(node: Node, state: State, task: GroundTask) -> tuple[NodeStatus, int | 
         return NodeStatus.FAILURE, None
     stop = NodeStatus.SUCCESS if isinstance(node, Sequence) else NodeStatus.FAILURE
     for child in node.children:
-        status, running = tick(child, state, task)
+        status, running = tick(child, state, task, checks)
         if status is not stop:
             return status, running
     return stop, None

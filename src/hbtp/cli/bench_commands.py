@@ -9,15 +9,14 @@ import click
 
 from hbtp.bench.fig3 import Fig3Config, run_fig3
 from hbtp.bench.fig4 import Fig4Config, run_fig4
-from hbtp.bench.results import write_json
+from hbtp.bench.runner import Execution
+from hbtp.bench.suite import PARTS, SuiteConfig, run_suite
 from hbtp.bench.table1 import Table1Config, run_table1
-from hbtp.bench.table2 import Table2Config, run_table2
-from hbtp.cli.options import comma_choices, comma_numbers
+from hbtp.bench.table2 import BackendRecipe, Table2Config, run_table2, write_table2_report
+from hbtp.cli.options import backend_options, comma_choices, comma_numbers, execution_options
 from hbtp.datasets import read_dataset_file
-from hbtp.domains import Scenario, scenario_names
-from hbtp.llm.backend import Backend
-from hbtp.llm.backends.first_reply import FirstReplyBackend
-from hbtp.llm.backends.registry import BackendOptions, make_backend
+from hbtp.domains import scenario_names
+from hbtp.llm.backends.registry import BackendOptions
 from hbtp.llm.prompt import RETRIEVALS, PromptOptions
 from hbtp.pipeline import LoopOptions
 from hbtp.planning import PLANNERS
@@ -37,7 +36,7 @@ def bench() -> None:
 @click.option("-t", "--time-limit", type=float, default=5.0, show_default=True, help="Seconds per task.")
 @click.option("--limit", type=int, help="Only the first N tasks.")
 @click.option("-o", "--out", "out_dir", required=True, type=click.Path(file_okay=False))
-@click.option("--no-progress", is_flag=True, help="No progress bar.")
+@execution_options
 def table1(
     space: str,
     planners: str,
@@ -46,7 +45,7 @@ def table1(
     time_limit: float,
     limit: int | None,
     out_dir: str,
-    no_progress: bool,
+    execution: Execution,
 ) -> int:
     """Table I: the four planners on the 100 Table I tasks (RobotHow)."""
     chosen = comma_choices(planners, PLANNERS, "--planners", "planner")
@@ -60,7 +59,7 @@ def table1(
         time_limit=time_limit,
         limit=limit,
     )
-    summary = run_table1(config, Path(out_dir), progress=not no_progress)
+    summary = run_table1(config, Path(out_dir), execution)
     header = f"{'planner':8} {'solved':>7} {'timeouts':>8} {'|S-|':>8} {'D(T)':>8} {'mean ms':>9} {'median ms':>10}"
     click.echo(header)
     for name, row in summary["planners"].items():
@@ -82,44 +81,38 @@ def table1(
     type=click.Path(dir_okay=False),
     help="Dataset file whose records are the first-round replies; --llm then answers the feedback rounds.",
 )
-@click.option("--model")
-@click.option("--base-url")
-@click.option("--api-key", help="API key (default $OPENAI_API_KEY; never stored).")
-@click.option("--llm-timeout", type=float, default=60.0, show_default=True, help="Seconds per LLM request.")
-@click.option("--model-path")
-@click.option("--threads", type=int)
+@backend_options
 @click.option("--planner", type=click.Choice(list(PLANNERS)), default="hbtp-s", show_default=True)
 @click.option("--feedback-rounds", type=click.IntRange(0, 10), default=3, show_default=True)
 @click.option("--examples", type=click.IntRange(0, 50), default=5, show_default=True)
 @click.option("--retrieval", type=click.Choice(list(RETRIEVALS)), default="lexical", show_default=True)
 @click.option("--round-time-limit", type=float, default=5.0, show_default=True)
 @click.option("--runs", type=click.IntRange(1, 100), default=1, show_default=True, help="Repeat with seeds 0..N-1.")
-@click.option("--noise-drop", type=float, default=0.3, show_default=True)
-@click.option("--noise-insert", type=float, default=0.3, show_default=True)
+@click.option(
+    "--b-time-limit",
+    type=click.FloatRange(min=0),
+    default=10.0,
+    show_default=True,
+    help="Seconds for B-Time (OBTEA, full space, no heuristic) per task; 0 skips it.",
+)
 @click.option("--limit", type=int, help="Only the first N tasks.")
 @click.option("-o", "--out", "out_dir", required=True, type=click.Path(file_okay=False))
-@click.option("--no-progress", is_flag=True)
+@execution_options
 def table2(
     scenarios: tuple[str, ...],
     llm_spec: str | None,
     hints_from: str | None,
-    model: str | None,
-    base_url: str | None,
-    api_key: str | None,
-    llm_timeout: float,
-    model_path: str | None,
-    threads: int | None,
+    backend: BackendOptions,
     planner: str,
     feedback_rounds: int,
     examples: int,
     retrieval: str,
     round_time_limit: float,
     runs: int,
-    noise_drop: float,
-    noise_insert: float,
+    b_time_limit: float,
     limit: int | None,
     out_dir: str,
-    no_progress: bool,
+    execution: Execution,
 ) -> int:
     """Table II: LLM reasoning with HBTP on the scenarios' test sets (NF / 1F / 3F success)."""
     names = scenarios or scenario_names()
@@ -138,23 +131,14 @@ def table2(
         ),
     )
 
-    def backend_for(scenario: Scenario, run: int) -> Backend:
-        options = BackendOptions(
-            model=model, base_url=base_url, api_key=api_key, timeout=llm_timeout,
-            model_path=model_path, threads=threads, drop=noise_drop, insert=noise_insert, seed=run,
-        )  # fmt: skip
-        inner = make_backend(llm_spec, scenario, options) if llm_spec else None
-        if records is not None:
-            return FirstReplyBackend(records, inner)
-        assert inner is not None
-        return inner
-
+    recipe = BackendRecipe(llm_spec, backend, tuple(records) if records is not None else None)
     rows = []
     for name in names:
-        config = Table2Config(scenario=name, backend=label, runs=runs, limit=limit, loop=loop)
-        summary = run_table2(config, backend_for, Path(out_dir) / name, progress=not no_progress)
-        rows.append(summary)
-    write_json(Path(out_dir) / "summary.json", {"scenarios": rows})
+        config = Table2Config(
+            scenario=name, backend=label, runs=runs, limit=limit, loop=loop, b_time_limit=b_time_limit
+        )
+        rows.append(run_table2(config, recipe, Path(out_dir) / name, execution))
+    write_table2_report(Path(out_dir), rows)
     click.echo(f"{'scenario':15} {'NF%':>6} {'1F%':>6} {'3F%':>6} {'final%':>7} {'|A-|':>6} {'|p^|':>5} {'|S-|':>7}"
                f" {'plan ms':>8} {'LLM s':>6}   paper NF/1F/3F")  # fmt: skip
     for row in rows:
@@ -180,10 +164,10 @@ def _fmt(value: float | None, width: int = 6) -> str:
 @click.option("-t", "--time-limit", type=float, default=5.0, show_default=True)
 @click.option("--limit", type=int, help="Only the first N tasks.")
 @click.option("-o", "--out", "out_dir", required=True, type=click.Path(file_okay=False))
-@click.option("--no-progress", is_flag=True)
+@execution_options
 def fig4(
     correct_rates: str, error_rates: str, seeds: int, time_limit: float, limit: int | None, out_dir: str,
-    no_progress: bool,
+    execution: Execution,
 ) -> int:  # fmt: skip
     """Figure 4: |S-| and D(T) of HBTP-O and HBTP-S as the heuristic path gets more right or wrong."""
     config = Fig4Config(
@@ -193,7 +177,7 @@ def fig4(
         time_limit=time_limit,
         limit=limit,
     )
-    summary = run_fig4(config, Path(out_dir), progress=not no_progress)
+    summary = run_fig4(config, Path(out_dir), execution)
     click.echo(f"{'planner':8} {'ER':>4} {'correct':>8} {'solved':>8} {'|S-|':>8} {'D(T)':>8}")
     for cell in summary["cells"]:
         click.echo(
@@ -212,10 +196,10 @@ def fig4(
 @click.option("-t", "--time-limit", type=float, default=5.0, show_default=True)
 @click.option("--limit", type=int, default=20, show_default=True, help="Table I tasks per scale.")
 @click.option("-o", "--out", "out_dir", required=True, type=click.Path(file_okay=False))
-@click.option("--no-progress", is_flag=True)
+@execution_options
 def fig3(
     scales: str, planners: str, space: str, heuristic: str, time_limit: float, limit: int, out_dir: str,
-    no_progress: bool,
+    execution: Execution,
 ) -> int:  # fmt: skip
     """Figure 3: planning time against the action-space size (RobotHow grown by cloning objects) and |p*|."""
     factors = comma_numbers(scales, "--scales", upper=20.0)
@@ -229,7 +213,7 @@ def fig3(
         time_limit=time_limit,
         limit=limit,
     )
-    summary = run_fig3(config, Path(out_dir), progress=not no_progress)
+    summary = run_fig3(config, Path(out_dir), execution)
     click.echo(f"{'scale':>6} {'|A|':>7} {'planner':8} {'solved':>8} {'mean ms':>10} {'median ms':>10}")
     for cell in summary["by_action_space"]:
         click.echo(
@@ -237,4 +221,28 @@ def fig3(
             f"{(cell['mean_time_s'] or 0) * 1000:>10.1f} {(cell['median_time_s'] or 0) * 1000:>10.1f}"
         )
     click.echo(f"wrote {Path(out_dir)}/results.jsonl, summary.json (and fig3.png with the plot extra)")
+    return 0
+
+
+@bench.command("all")
+@click.option("--quick", is_flag=True, help="A few tasks per cell and shorter limits (a few minutes).")
+@click.option("--only", "parts", default=",".join(PARTS), show_default=True, help="Comma-separated parts.")
+@click.option("--llm", "llm_spec", default="local", show_default=True, help="Table II backend (see hbtp plan --llm).")
+@backend_options
+@click.option("--runs", type=click.IntRange(1, 100), default=1, show_default=True, help="Table II runs (seeds).")
+@click.option("-o", "--out", "out_dir", required=True, type=click.Path(file_okay=False))
+@execution_options
+def bench_all(
+    quick: bool,
+    parts: str,
+    llm_spec: str,
+    backend: BackendOptions,
+    runs: int,
+    out_dir: str,
+    execution: Execution,
+) -> int:
+    """Every table and figure of the paper: DIR/report.md, DIR/summary.json, and one folder per part."""
+    config = SuiteConfig(quick=quick, parts=comma_choices(parts, PARTS, "--only", "part"), llm=llm_spec, runs=runs)
+    run_suite(config, BackendRecipe(llm_spec, backend), Path(out_dir), execution)
+    click.echo(f"wrote {Path(out_dir) / 'report.md'} and {Path(out_dir) / 'summary.json'}")
     return 0

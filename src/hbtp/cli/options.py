@@ -11,10 +11,12 @@ from typing import Any, TypeVar, cast
 
 import click
 
+from hbtp.bench.runner import EXECUTORS, Execution, ExecutorName
 from hbtp.domains import Scenario, load_pddl_scenario, load_scenario, scenario_names
 from hbtp.domains.scenarios import read_mutex_file
 from hbtp.errors import InputError
 from hbtp.files import write_all_atomically
+from hbtp.llm.backends.registry import BackendOptions
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -122,3 +124,75 @@ def comma_numbers(text: str, hint: str, upper: float = 1.0) -> tuple[float, ...]
     if not values or any(not 0.0 <= v <= upper for v in values):
         raise click.BadParameter(f"every value must be between 0 and {upper}", param_hint=hint)
     return values
+
+
+def execution_options(function: F) -> F:
+    """``--jobs``, ``--executor``, ``--kill-after``, ``--no-progress``, passed on as ``execution``."""
+
+    @click.option("-j", "--jobs", type=click.IntRange(1, 512), default=1, show_default=True, help="Runs in parallel.")
+    @click.option(
+        "--executor",
+        type=click.Choice(list(EXECUTORS)),
+        default="local",
+        show_default=True,
+        help="local: worker processes; ray: a Ray cluster ($RAY_ADDRESS) or a local Ray; inline: this process.",
+    )
+    @click.option(
+        "--kill-after",
+        type=click.FloatRange(min=0, min_open=True),
+        help="Hard limit in seconds per run: the worker is killed (default: from the benchmark's time limits).",
+    )
+    @click.option("--no-progress", is_flag=True, help="No progress bar.")
+    @functools.wraps(function)
+    def wrapper(
+        *args: Any, jobs: int, executor: str, kill_after: float | None, no_progress: bool, **kwargs: Any
+    ) -> Any:
+        execution = Execution(
+            executor=cast(ExecutorName, executor), jobs=jobs, kill_after=kill_after, progress=not no_progress
+        )
+        return function(*args, execution=execution, **kwargs)
+
+    return cast(F, wrapper)
+
+
+def backend_options(function: F) -> F:
+    """The LLM back-end options (``--model``, ``--base-url``, ``--api-key``, ``--llm-timeout``,
+    ``--model-path``, ``--threads``, ``--noise-drop``, ``--noise-insert``), passed on as
+    ``backend: BackendOptions``."""
+
+    @click.option("--model", help="LLM model name (openai; default $HBTP_LLM_MODEL).")
+    @click.option("--base-url", help="OpenAI-compatible server URL (default $OPENAI_BASE_URL).")
+    @click.option("--api-key", help="API key (default $OPENAI_API_KEY; never stored).")
+    @click.option("--llm-timeout", type=float, default=60.0, show_default=True, help="Seconds per LLM request.")
+    @click.option("--model-path", help="GGUF file for --llm local (default: the packaged Gemma-3 270M).")
+    @click.option("--threads", type=int, help="CPU threads for --llm local.")
+    @click.option("--noise-drop", type=float, default=0.3, show_default=True, help="noisy-oracle: fraction dropped.")
+    @click.option(
+        "--noise-insert", type=float, default=0.3, show_default=True, help="noisy-oracle: wrong actions added."
+    )
+    @functools.wraps(function)
+    def wrapper(
+        *args: Any,
+        model: str | None,
+        base_url: str | None,
+        api_key: str | None,
+        llm_timeout: float,
+        model_path: str | None,
+        threads: int | None,
+        noise_drop: float,
+        noise_insert: float,
+        **kwargs: Any,
+    ) -> Any:
+        backend = BackendOptions(
+            model=model,
+            base_url=base_url,
+            api_key=api_key,
+            timeout=llm_timeout,
+            model_path=model_path,
+            threads=threads,
+            drop=noise_drop,
+            insert=noise_insert,
+        )
+        return function(*args, backend=backend, **kwargs)
+
+    return cast(F, wrapper)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import cast
 
@@ -11,7 +12,13 @@ from hbtp.bt import render_text, size, tree_of
 from hbtp.bt.compact import compact
 from hbtp.bt.jsonio import tree_to_json
 from hbtp.cli.export_command import export_options, write_export
-from hbtp.cli.options import ScenarioSource, echo_json, scenario_options, write_files_atomically
+from hbtp.cli.options import (
+    ScenarioSource,
+    backend_options,
+    echo_json,
+    scenario_options,
+    write_files_atomically,
+)
 from hbtp.datasets import read_dataset_file
 from hbtp.datasets.records import Record
 from hbtp.domains import Scenario
@@ -108,12 +115,7 @@ def _goal_ids(loaded: Scenario, record: Record) -> frozenset[int] | None:
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON instead of the tree.")
 @click.option("--max-branches", type=int, default=40, show_default=True, help="Branches shown in the terminal.")
 @click.option("--llm", "llm_spec", help="Ask an LLM for hints: local, openai, oracle, noisy-oracle or replay:FILE.")
-@click.option("--model", help="LLM model name (openai; default $HBTP_LLM_MODEL).")
-@click.option("--base-url", help="OpenAI-compatible server URL (default $OPENAI_BASE_URL).")
-@click.option("--api-key", help="API key (default $OPENAI_API_KEY; never stored).")
-@click.option("--llm-timeout", type=float, default=60.0, show_default=True, help="Seconds per LLM request.")
-@click.option("--model-path", help="GGUF file for --llm local (default: the packaged Gemma-3 270M).")
-@click.option("--threads", type=int, help="CPU threads for --llm local.")
+@backend_options
 @click.option("--feedback-rounds", type=click.IntRange(0, 10), default=3, show_default=True)
 @click.option("--grammar-retries", type=click.IntRange(0, 10), default=2, show_default=True)
 @click.option("--examples", type=click.IntRange(0, 50), default=5, show_default=True, help="Few-shot demonstrations.")
@@ -127,8 +129,6 @@ def _goal_ids(loaded: Scenario, record: Record) -> frozenset[int] | None:
 )
 @click.option("--round-time-limit", type=float, default=5.0, show_default=True, help="Planning seconds per round.")
 @click.option("--no-fallback", is_flag=True, help="Do not plan in the full space after the last round.")
-@click.option("--noise-drop", type=float, default=0.3, show_default=True, help="noisy-oracle: fraction dropped.")
-@click.option("--noise-insert", type=float, default=0.3, show_default=True, help="noisy-oracle: wrong actions added.")
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--record", type=click.Path(dir_okay=False), help="Record every LLM exchange to this JSONL file.")
 def plan_command(
@@ -151,12 +151,7 @@ def plan_command(
     export_file: str | None,
     export_format: str | None,
     llm_spec: str | None,
-    model: str | None,
-    base_url: str | None,
-    api_key: str | None,
-    llm_timeout: float,
-    model_path: str | None,
-    threads: int | None,
+    backend: BackendOptions,
     feedback_rounds: int,
     grammar_retries: int,
     examples: int,
@@ -164,8 +159,6 @@ def plan_command(
     retrieval: str,
     round_time_limit: float,
     no_fallback: bool,
-    noise_drop: float,
-    noise_insert: float,
     seed: int,
     record: str | None,
 ) -> int:
@@ -180,22 +173,7 @@ def plan_command(
             raise InputError("use either --llm or --hints, not both")
         if not round_time_limit > 0:
             raise InputError(f"--round-time-limit must be positive, not {round_time_limit}")
-        backend = make_backend(
-            llm_spec,
-            loaded,
-            BackendOptions(
-                model=model,
-                base_url=base_url,
-                api_key=api_key,
-                timeout=llm_timeout,
-                model_path=model_path,
-                threads=threads,
-                drop=noise_drop,
-                insert=noise_insert,
-                seed=seed,
-                record=record,
-            ),
-        )
+        llm = make_backend(llm_spec, loaded, replace(backend, seed=seed, record=record))
         options = LoopOptions(
             planner=planner,
             feedback_rounds=feedback_rounds,
@@ -209,9 +187,9 @@ def plan_command(
             ),
         )
         try:
-            loop = run_hbtp(loaded, resolved, backend, example_pool(loaded, examples_from), options)
+            loop = run_hbtp(loaded, resolved, llm, example_pool(loaded, examples_from), options)
         finally:
-            backend.close()
+            llm.close()
         return _report(
             loop.result, loaded, resolved, (tree_kind, compact), (out_file, export_file, export_format), as_json,
             max_branches,

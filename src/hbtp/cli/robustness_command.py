@@ -8,7 +8,8 @@ from typing import cast
 import click
 
 from hbtp.bench.robustness import MAX_TICKS, SCENARIOS, run_robustness
-from hbtp.cli.options import comma_choices, comma_numbers
+from hbtp.bench.runner import Execution
+from hbtp.cli.options import comma_choices, comma_numbers, execution_options
 from hbtp.cli.run_command import exit_codes
 from hbtp.planning import PLANNERS
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
@@ -40,7 +41,7 @@ def _figure(value: float | None, percent: bool = False) -> str:
     "--robust", type=click.IntRange(0), default=0, show_default=True, help="Extra expansions after each solution."
 )
 @click.option("--limit", type=int, help="Only the first N tasks of each test set.")
-@click.option("--no-progress", is_flag=True, help="No progress bar.")
+@execution_options
 @exit_codes
 def robustness(
     out_dir: str,
@@ -53,7 +54,7 @@ def robustness(
     max_ticks: int,
     robust: int,
     limit: int | None,
-    no_progress: bool,
+    execution: Execution,
 ) -> int:
     """Full tree vs path-only tree on the Table II test sets, with random external events."""
     chosen = comma_choices(scenario_text, SCENARIOS, "--scenarios", "scenario")
@@ -68,7 +69,7 @@ def robustness(
         seed=seed,
         scenarios=chosen,
         limit=limit,
-        progress=not no_progress,
+        execution=execution,
         max_ticks=max_ticks,
         robust=robust,
         planner=planner,

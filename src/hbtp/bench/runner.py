@@ -1,0 +1,256 @@
+"""Run benchmark work items inline, in local worker processes, or on Ray, with a hard time limit.
+
+Every benchmark describes its runs as :class:`Work` items (a key, a picklable ``spec`` and the row
+fields known before running) and a module-level function ``spec -> row``. :func:`run_work` runs the
+items that ``results.jsonl`` does not hold yet and appends each row as it arrives, so an interrupted
+benchmark resumes where it stopped. Rows depend only on their spec (every run is seeded from its own
+key), so the executor and the number of jobs change the order of the lines in ``results.jsonl`` and
+the measured times, nothing else; summaries are computed in key order.
+
+Executors:
+
+- ``inline``: in this process, one run after the other (no isolation; for debugging and tests);
+- ``local``: ``jobs`` worker processes (:class:`concurrent.futures.ProcessPoolExecutor`);
+- ``ray``: Ray tasks, on the cluster at ``RAY_ADDRESS`` or on a local Ray started for the run.
+
+With ``local`` and ``ray`` a run that exceeds ``kill_after`` seconds (a planner that ignores its own
+time limit, a hung LLM request) is killed with its worker and recorded as ``status: "killed"``.
+At most ``jobs`` runs are in flight, so a run's clock starts when a worker is free for it.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+import os
+import signal
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+from tqdm import tqdm
+
+from hbtp.bench.results import ResultsFile
+from hbtp.errors import BackendError, InputError
+
+log = logging.getLogger(__name__)
+
+ExecutorName = Literal["inline", "local", "ray"]
+EXECUTORS: tuple[ExecutorName, ...] = ("local", "inline", "ray")
+#: A run whose worker died this many times (out of memory, a crash) is recorded as ``crashed``.
+CRASH_RETRIES = 2
+
+#: A module-level function (picklable) from a spec to its row, or rows.
+RunFunction = Callable[[Any], dict[str, Any] | list[dict[str, Any]]]
+
+
+@dataclass(frozen=True)
+class Work:
+    """One run: ``key`` (names it in logs), ``spec`` (the run function's argument) and ``known``: the
+    fields of each row it produces that are known without running it, including the results.jsonl
+    key fields (a run is pending while one of its rows is missing; a killed or crashed run gets
+    these rows, unsolved)."""
+
+    key: tuple[Any, ...]
+    spec: Any
+    known: dict[str, Any] | tuple[dict[str, Any], ...] = field(default_factory=dict)
+
+    @property
+    def rows(self) -> tuple[dict[str, Any], ...]:
+        return self.known if isinstance(self.known, tuple) else (self.known,)
+
+
+@dataclass(frozen=True)
+class Execution:
+    """How to run: ``executor``, ``jobs`` in parallel, ``kill_after`` seconds per run (``None``: the
+    benchmark's default), and whether to show a progress bar."""
+
+    executor: ExecutorName = "local"
+    jobs: int = 1
+    kill_after: float | None = None
+    progress: bool = True
+
+    def __post_init__(self) -> None:
+        if self.executor not in EXECUTORS:
+            raise InputError(f"unknown executor {self.executor!r}; choose one of: {', '.join(EXECUTORS)}")
+        if self.jobs < 1:
+            raise InputError(f"jobs must be at least 1, not {self.jobs}")
+        if self.kill_after is not None and not self.kill_after > 0:
+            raise InputError(f"kill_after must be a positive number of seconds, not {self.kill_after}")
+
+
+#: The default: one local worker process, with a progress bar.
+DEFAULT_EXECUTION = Execution()
+#: In this process, quietly (tests, debugging).
+INLINE = Execution(executor="inline", progress=False)
+
+
+def failed_rows(work: Work, status: str, seconds: float) -> list[dict[str, Any]]:
+    """The rows of a run that did not return: their known fields, unsolved, with the time it took."""
+    return [{**known, "status": status, "solved": False, "time_s": round(seconds, 6)} for known in work.rows]
+
+
+def _pending(work: Work, results: ResultsFile) -> bool:
+    return any(results.key(row) not in results for row in work.rows)
+
+
+def _store(results: ResultsFile, rows: dict[str, Any] | list[dict[str, Any]]) -> None:
+    for row in rows if isinstance(rows, list) else [rows]:
+        if results.key(row) not in results:
+            results.append(row)
+
+
+def run_work(
+    function: RunFunction,
+    work: Sequence[Work],
+    results: ResultsFile,
+    execution: Execution,
+    *,
+    kill_after: float,
+    description: str,
+) -> None:
+    """Run every item of ``work`` not in ``results`` with ``function`` and append the rows."""
+    pending = [item for item in work if _pending(item, results)]
+    limit = execution.kill_after or kill_after
+    bar = tqdm(
+        total=len(work),
+        initial=len(work) - len(pending),
+        desc=description,
+        disable=not execution.progress,
+        unit="run",
+    )
+    try:
+        if not pending:
+            return
+        if execution.executor == "inline":
+            for item in pending:
+                _store(results, function(item.spec))
+                bar.update(1)
+        elif execution.executor == "local":
+            _run_local(function, pending, results, execution.jobs, limit, bar)
+        else:
+            _run_ray(function, pending, results, execution.jobs, limit, bar)
+    finally:
+        bar.close()
+
+
+def _kill_workers(pool: ProcessPoolExecutor) -> None:
+    """Kill the pool's processes (``ProcessPoolExecutor.kill_workers`` from Python 3.14 on)."""
+    kill = getattr(pool, "kill_workers", None)
+    if kill is not None:
+        kill()
+    else:
+        for process in list((getattr(pool, "_processes", None) or {}).values()):
+            if process.is_alive():
+                os.kill(process.pid, signal.SIGKILL)
+    pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _new_pool(jobs: int) -> ProcessPoolExecutor:
+    # forkserver: workers start from a clean, single-threaded server process (no inherited threads
+    # or model handles); each worker loads what its runs need once and caches it.
+    method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
+    return ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context(method))
+
+
+def _run_local(
+    function: RunFunction, pending: Sequence[Work], results: ResultsFile, jobs: int, limit: float, bar: tqdm
+) -> None:
+    queue = list(reversed(pending))
+    crashes: dict[tuple[Any, ...], int] = {}
+    pool = _new_pool(jobs)
+    running: dict[Future[Any], tuple[Work, float]] = {}
+    try:
+        while queue or running:
+            while queue and len(running) < jobs:
+                item = queue.pop()
+                running[pool.submit(function, item.spec)] = (item, time.monotonic())
+            nearest = min(started for _, started in running.values()) + limit
+            done, _ = wait(running, timeout=max(0.0, nearest - time.monotonic()), return_when=FIRST_COMPLETED)
+            broken = False
+            for future in done:
+                item, started = running.pop(future)
+                try:
+                    row = future.result()
+                except BrokenProcessPool:
+                    broken = True
+                    crashes[item.key] = crashes.get(item.key, 0) + 1
+                    if crashes[item.key] >= CRASH_RETRIES:
+                        log.warning("run %s: its worker died %d times; recorded as crashed", item.key, CRASH_RETRIES)
+                        _store(results, failed_rows(item, "crashed", time.monotonic() - started))
+                        bar.update(1)
+                    else:
+                        queue.append(item)
+                    continue
+                _store(results, row)
+                bar.update(1)
+            now = time.monotonic()
+            overdue = [f for f, (_, started) in running.items() if now - started >= limit]
+            if overdue or broken:
+                for future in overdue:
+                    item, started = running.pop(future)
+                    log.warning("run %s exceeded %.0f s; its worker was killed", item.key, limit)
+                    _store(results, failed_rows(item, "killed", now - started))
+                    bar.update(1)
+                # The other runs in flight lose their worker too: run them again on a new pool.
+                queue.extend(item for item, _ in running.values())
+                running.clear()
+                _kill_workers(pool)
+                pool = _new_pool(jobs)
+    finally:
+        if running:
+            _kill_workers(pool)
+        else:
+            pool.shutdown(wait=True)
+
+
+def _run_ray(
+    function: RunFunction, pending: Sequence[Work], results: ResultsFile, jobs: int, limit: float, bar: tqdm
+) -> None:
+    try:
+        import ray
+    except ImportError:
+        raise BackendError("the ray executor needs Ray: pip install 'hbtp[ray]'") from None
+    started_here = not ray.is_initialized()
+    if started_here:
+        address = os.environ.get("RAY_ADDRESS") or None
+        log.info("connecting to Ray at %s", address or "a new local Ray")
+        try:
+            if address:
+                ray.init(address=address, log_to_driver=False)
+            else:
+                ray.init(num_cpus=jobs, include_dashboard=False, log_to_driver=False)
+        except Exception as error:  # Ray raises many types (ConnectionError, RuntimeError, ...)
+            raise BackendError(f"cannot start or reach Ray ({address or 'local'}): {error}") from error
+    remote = ray.remote(max_retries=0)(function)
+    queue = list(reversed(pending))
+    running: dict[Any, tuple[Work, float]] = {}
+    try:
+        while queue or running:
+            while queue and len(running) < jobs:
+                item = queue.pop()
+                running[remote.remote(item.spec)] = (item, time.monotonic())
+            nearest = min(started for _, started in running.values()) + limit
+            done, _ = ray.wait(list(running), num_returns=1, timeout=max(0.0, nearest - time.monotonic()))
+            for ref in done:
+                item, _ = running.pop(ref)
+                _store(results, ray.get(ref))
+                bar.update(1)
+            now = time.monotonic()
+            for ref in [r for r, (_, started) in running.items() if now - started >= limit]:
+                item, started = running.pop(ref)
+                log.warning("run %s exceeded %.0f s; its Ray task was killed", item.key, limit)
+                ray.cancel(ref, force=True)
+                _store(results, failed_rows(item, "killed", now - started))
+                bar.update(1)
+    finally:
+        for ref in running:
+            ray.cancel(ref, force=True)
+        if started_here:
+            ray.shutdown()
+
+
+__all__ = ["DEFAULT_EXECUTION", "EXECUTORS", "INLINE", "Execution", "ExecutorName", "Work", "failed_rows", "run_work"]
