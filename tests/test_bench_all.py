@@ -84,7 +84,7 @@ def test_the_whole_quick_run_gives_the_same_rows_inline_and_on_two_workers(tmp_p
     assert main([*QUICK, "--executor", "inline", "-o", str(tmp_path / "inline")]) == EXIT_OK
     assert main([*QUICK, "--jobs", "2", "-o", str(tmp_path / "jobs")]) == EXIT_OK
     inline, jobs = _results(tmp_path / "inline"), _results(tmp_path / "jobs")
-    assert len(inline) == 11  # 3 table1 settings, 4 table2 scenarios, 2 fig3 settings, fig4, robustness
+    assert len(inline) == 12  # 3 table1 settings, 4 table2 scenarios, 3 fig3 settings, fig4, robustness
     assert inline.keys() == jobs.keys()
     for part, rows in inline.items():
         assert rows.keys() == jobs[part].keys(), part

@@ -85,9 +85,10 @@ def plot_table2(summaries: list[dict[str, Any]], path: Path) -> bool:
     axis.set_xticks([i + width * (len(columns) - 1) / 2 for i in range(len(names))])
     axis.set_xticklabels(names)
     axis.set(
-        ylabel="success (%)", ylim=(0, 105), title=f"Table II: success by feedback rounds ({_backends(summaries)})"
+        ylabel="success (%)", ylim=(0, 120), title=f"Table II: success by feedback rounds ({_backends(summaries)})"
     )
-    axis.legend(fontsize=8, ncol=5, loc="lower left")
+    axis.set_yticks(range(0, 101, 20))
+    axis.legend(fontsize=8, ncol=5, loc="upper center")
     return _save(plt, figure, path)
 
 

@@ -2,7 +2,8 @@
 
 Layout of ``out``: ``table1/`` (three settings: pruned space with oracle hints, full space with
 oracle hints, full space without hints and with the landmark heuristic), ``table2/<scenario>/``,
-``fig3/none`` and ``fig3/lm`` (no heuristic as in the paper; the landmark heuristic), ``fig4/``,
+``fig3/none``, ``fig3/lm`` and ``fig3/pruned`` (the full space without a heuristic as in the paper,
+with the landmark heuristic, and the pruned spaces), ``fig4/``,
 ``robustness/``; each with results.jsonl, summary.json, report.md and PNG plots; and at the top
 ``report.md`` (every section, plus the machine and the settings) and ``summary.json``.
 ``quick`` runs a few tasks per cell with shorter limits (a few minutes on two cores). Every part
@@ -76,7 +77,7 @@ def fig3_settings(quick: bool) -> list[tuple[str, Fig3Config]]:
         base = Fig3Config(scales=(1.0, 2.0), time_limit=2.0, limit=3)
     else:
         base = Fig3Config(scales=(1.0, 1.5, 2.0, 2.5, 3.0), time_limit=5.0, limit=20)
-    return [("none", base), ("lm", replace(base, heuristic="lm"))]
+    return [("none", base), ("lm", replace(base, heuristic="lm")), ("pruned", replace(base, space="pruned"))]
 
 
 def fig4_setting(quick: bool) -> Fig4Config:
