@@ -13,6 +13,7 @@ import re
 import socket
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
@@ -67,7 +68,7 @@ MODEL_BUDGET_S = 60.0
 @needs_xllamacpp
 def test_local_backend_answers_a_few_shot_prompt() -> None:
     started = time.monotonic()
-    with LocalBackend(threads=1, context=1024) as backend:
+    with LocalBackend(threads=1, context=1024, prompt_cache=True) as backend:
         assert not backend.loaded
         reply = backend.complete(REQUEST)
         assert backend.loaded
@@ -85,6 +86,19 @@ def test_local_backend_answers_a_few_shot_prompt() -> None:
     assert 0 < reply.seconds < MODEL_BUDGET_S
     assert again.meta.get("cached_tokens", 0) > 0
     assert elapsed < MODEL_BUDGET_S
+
+
+@pytest.mark.llm
+@needs_xllamacpp
+def test_without_the_prompt_cache_an_answer_does_not_depend_on_earlier_requests() -> None:
+    other = replace(REQUEST, completion_prompt=FEW_SHOT.replace("IsIn_apple_fridge", "IsOpen_fridge"))
+    with LocalBackend(threads=1, context=1024) as fresh:
+        alone = fresh.complete(REQUEST)
+    with LocalBackend(threads=1, context=1024) as used:
+        used.complete(other)  # shares the few-shot prefix with REQUEST
+        after = used.complete(REQUEST)
+    assert after.text == alone.text
+    assert not after.meta.get("cached_tokens")
 
 
 @pytest.mark.llm

@@ -157,7 +157,7 @@ def execution_options(function: F) -> F:
 
 def backend_options(function: F) -> F:
     """The LLM back-end options (``--model``, ``--base-url``, ``--api-key``, ``--llm-timeout``,
-    ``--model-path``, ``--threads``, ``--noise-drop``, ``--noise-insert``), passed on as
+    ``--model-path``, ``--threads``, ``--prompt-cache``, ``--noise-drop``, ``--noise-insert``), passed on as
     ``backend: BackendOptions``."""
 
     @click.option("--model", help="LLM model name (openai; default $HBTP_LLM_MODEL).")
@@ -166,6 +166,11 @@ def backend_options(function: F) -> F:
     @click.option("--llm-timeout", type=float, default=60.0, show_default=True, help="Seconds per LLM request.")
     @click.option("--model-path", help="GGUF file for --llm local (default: the packaged Gemma-3 270M).")
     @click.option("--threads", type=int, help="CPU threads for --llm local.")
+    @click.option(
+        "--prompt-cache",
+        is_flag=True,
+        help="--llm local: reuse the prompt cache (faster; answers may then depend on the order of requests).",
+    )
     @click.option("--noise-drop", type=float, default=0.3, show_default=True, help="noisy-oracle: fraction dropped.")
     @click.option(
         "--noise-insert", type=float, default=0.3, show_default=True, help="noisy-oracle: wrong actions added."
@@ -179,6 +184,7 @@ def backend_options(function: F) -> F:
         llm_timeout: float,
         model_path: str | None,
         threads: int | None,
+        prompt_cache: bool,
         noise_drop: float,
         noise_insert: float,
         **kwargs: Any,
@@ -190,6 +196,7 @@ def backend_options(function: F) -> F:
             timeout=llm_timeout,
             model_path=model_path,
             threads=threads,
+            prompt_cache=prompt_cache,
             drop=noise_drop,
             insert=noise_insert,
         )

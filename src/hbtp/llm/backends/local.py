@@ -295,9 +295,12 @@ class LocalBackend:
     The model is loaded on the first :meth:`complete` (or :meth:`load`) and stays loaded until
     :meth:`close`; a reply's ``seconds`` is the wall time of answering, without loading (the reply
     that loaded the model has ``meta["load_seconds"]``). ``temperature`` 0 is greedy decoding; the
-    seed is the request's when non-zero, else ``seed``. Requests share llama.cpp's prompt cache, so
-    a few-shot prefix common to many requests is evaluated once. Safe to call from several threads
-    (llama.cpp queues the requests).
+    seed is the request's when non-zero, else ``seed``. With ``prompt_cache`` requests reuse
+    llama.cpp's prompt cache, so a few-shot prefix common to many requests is evaluated once; that
+    is faster, but llama.cpp's logits then depend on which earlier request left the prefix in the
+    cache, so a greedy answer can change with the order of the requests. Off by default: the same
+    prompt always gets the same answer. Safe to call from several threads (llama.cpp queues the
+    requests).
     """
 
     def __init__(
@@ -306,6 +309,7 @@ class LocalBackend:
         threads: int | None = None,
         context: int = 4096,
         seed: int = 0,
+        prompt_cache: bool = False,
     ) -> None:
         if importlib.util.find_spec("xllamacpp") is None:
             raise BackendError(f"the local model needs xllamacpp; {_INSTALL_LOCAL}")
@@ -315,6 +319,7 @@ class LocalBackend:
         self.threads = resolve_threads(threads)
         self.context = context
         self.seed = seed
+        self.prompt_cache = prompt_cache
         self.name = f"local:{self.model_path.stem if self.model_path else DEFAULT_MODEL_ALIAS}"
         #: Seconds the model took to load (``None`` until it is loaded).
         self.load_seconds: float | None = None
@@ -367,7 +372,7 @@ class LocalBackend:
             "temperature": max(0.0, request.temperature),
             "seed": request.seed or self.seed,
             "stop": merged_stops(request.stop),
-            "cache_prompt": True,
+            "cache_prompt": self.prompt_cache,
         }
         if request.temperature <= 0:
             body["top_k"] = 1

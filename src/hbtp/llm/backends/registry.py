@@ -26,6 +26,7 @@ class BackendOptions:
     insert: float = 0.3
     seed: int = 0
     record: str | None = None  # wrap the backend and record every exchange to this JSONL file
+    prompt_cache: bool = False  # local: reuse llama.cpp's prompt cache (faster, answers depend on order)
 
 
 def make_backend(spec: str, scenario: Scenario, options: BackendOptions = BackendOptions()) -> Backend:
@@ -48,7 +49,9 @@ def make_backend(spec: str, scenario: Scenario, options: BackendOptions = Backen
     elif spec == "local":
         from hbtp.llm.backends.local import LocalBackend
 
-        backend = LocalBackend(model_path=options.model_path, threads=options.threads, seed=options.seed)
+        backend = LocalBackend(
+            model_path=options.model_path, threads=options.threads, seed=options.seed, prompt_cache=options.prompt_cache
+        )
     else:
         raise InputError(f"unknown LLM backend {spec!r}; choose one of: {', '.join(BACKENDS)}")
     if options.record:
