@@ -40,9 +40,6 @@ log = logging.getLogger(__name__)
 
 ExecutorName = Literal["inline", "local", "ray"]
 EXECUTORS: tuple[ExecutorName, ...] = ("local", "inline", "ray")
-#: A run whose worker died this many times (out of memory, a crash) is recorded as ``crashed``.
-CRASH_RETRIES = 2
-
 #: A module-level function (picklable) from a spec to its row, or rows.
 RunFunction = Callable[[Any], dict[str, Any] | list[dict[str, Any]]]
 
@@ -160,12 +157,19 @@ def _run_local(
     function: RunFunction, pending: Sequence[Work], results: ResultsFile, jobs: int, limit: float, bar: tqdm
 ) -> None:
     queue = list(reversed(pending))
-    crashes: dict[tuple[Any, ...], int] = {}
+    # Runs in flight when a worker died: any of them may have killed it, so each runs again alone;
+    # one that kills its worker while alone is recorded as crashed.
+    suspects: list[Work] = []
     pool = _new_pool(jobs)
     running: dict[Future[Any], tuple[Work, float]] = {}
+    alone = False
     try:
-        while queue or running:
-            while queue and len(running) < jobs:
+        while queue or suspects or running:
+            if suspects and not running:
+                item = suspects.pop()
+                running[pool.submit(function, item.spec)] = (item, time.monotonic())
+                alone = True
+            while queue and not suspects and not alone and len(running) < jobs:
                 item = queue.pop()
                 running[pool.submit(function, item.spec)] = (item, time.monotonic())
             nearest = min(started for _, started in running.values()) + limit
@@ -177,16 +181,17 @@ def _run_local(
                     row = future.result()
                 except BrokenProcessPool:
                     broken = True
-                    crashes[item.key] = crashes.get(item.key, 0) + 1
-                    if crashes[item.key] >= CRASH_RETRIES:
-                        log.warning("run %s: its worker died %d times; recorded as crashed", item.key, CRASH_RETRIES)
+                    if alone:
+                        log.warning("run %s killed its worker process; recorded as crashed", item.key)
                         _store(results, failed_rows(item, "crashed", time.monotonic() - started))
                         bar.update(1)
                     else:
-                        queue.append(item)
+                        suspects.append(item)
                     continue
                 _store(results, row)
                 bar.update(1)
+            if not running:
+                alone = False
             now = time.monotonic()
             overdue = [f for f, (_, started) in running.items() if now - started >= limit]
             if overdue or broken:
@@ -195,9 +200,10 @@ def _run_local(
                     log.warning("run %s exceeded %.0f s; its worker was killed", item.key, limit)
                     _store(results, failed_rows(item, "killed", now - started))
                     bar.update(1)
-                # The other runs in flight lose their worker too: run them again on a new pool.
-                queue.extend(item for item, _ in running.values())
+                # The other runs in flight lose their worker too: run them again.
+                (suspects if broken else queue).extend(item for item, _ in running.values())
                 running.clear()
+                alone = False
                 _kill_workers(pool)
                 pool = _new_pool(jobs)
     finally:
