@@ -10,7 +10,7 @@ from hbtp.bt.verify import verify
 from hbtp.datasets import load_dataset
 from hbtp.domains import Scenario
 from hbtp.logic.task import GroundTask
-from hbtp.planning import hints_from_names, plan
+from hbtp.planning import hints_from_record, plan
 from helpers import random_task
 
 
@@ -33,7 +33,7 @@ def test_compacted_planned_trees_act_the_same_from_every_explored_state(scenario
     trees = 0
     total_before = total_after = 0
     for record in load_dataset(scenario.test_set)[:8]:
-        hints = hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
+        hints = hints_from_record(record)
         goal = task.resolve_goal(record.goal).ids
         for planner in ("hbtp-s", "obtea"):
             result = plan(

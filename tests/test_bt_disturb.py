@@ -21,7 +21,7 @@ from hbtp.datasets import load_dataset
 from hbtp.domains import Scenario
 from hbtp.errors import InputError
 from hbtp.logic.task import State
-from hbtp.planning import PlanResult, hints_from_names, plan
+from hbtp.planning import PlanResult, hints_from_record, plan
 from hbtp.planning.heuristics import HeuristicName
 
 
@@ -31,7 +31,7 @@ def _plans(
     assert scenario.test_set is not None
     found = []
     for record in load_dataset(scenario.test_set)[:count]:
-        hints = hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
+        hints = hints_from_record(record)
         result = plan(
             scenario.task,
             record.goal,

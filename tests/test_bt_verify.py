@@ -12,7 +12,7 @@ from hbtp.bt.verify import Branch, flatten, path_text, verify
 from hbtp.datasets import load_dataset
 from hbtp.domains import Scenario
 from hbtp.logic.task import GroundTask
-from hbtp.planning import hints_from_names, plan
+from hbtp.planning import hints_from_record, plan
 from helpers import kitchen_builder
 
 
@@ -227,7 +227,7 @@ def test_path_text() -> None:
 def _planned_trees(scenario: Scenario, dataset: str) -> list[tuple[str, str, Node, frozenset[int]]]:
     trees = []
     for record in load_dataset(dataset):
-        hints = hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
+        hints = hints_from_record(record)
         result = plan(
             scenario.task, record.goal, "hbtp-s", hints=hints, space="pruned", mutexes=scenario.mutexes, heuristic="lm"
         )

@@ -9,7 +9,7 @@ import pytest
 from hbtp.datasets import load_dataset
 from hbtp.llm.backends.oracle import format_reply
 from hbtp.llm.parse import parse_reply
-from hbtp.planning import hints_from_names
+from hbtp.planning import hints_from_record
 
 ALL = frozenset({"path", "predicates", "objects"})
 DATASET_REPLY = """Optimal Actions: Walk_apple, RightGrab_apple, Walk_fridge, Open_fridge, RightPutIn_apple_fridge
@@ -208,7 +208,7 @@ def test_every_dataset_record_round_trips_through_the_reply_format() -> None:
     for name in ("fewshot_robowaiter_100", "table2_robothow_small_50"):
         for record in load_dataset(name):
             text = format_reply(list(record.optimal_actions), list(record.vital_predicates), list(record.vital_objects))
-            expected = hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
+            expected = hints_from_record(record)
             parsed = parse_reply(text)
             assert parsed.found == ALL, record.id
             assert parsed.hints == expected, record.id

@@ -17,7 +17,7 @@ from hbtp.cli import EXIT_INPUT, EXIT_NOT_SOLVED, EXIT_OK, main
 from hbtp.datasets import load_dataset, write_text
 from hbtp.domains import Scenario, load_scenario, scenario_names
 from hbtp.llm.parse import parse_reply
-from hbtp.planning import Hints, hints_from_names, plan, pruned_action_space, resolve_hints
+from hbtp.planning import Hints, hints_from_record, plan, pruned_action_space, resolve_hints
 
 MILK = "IsIn_milk_fridge & IsClose_fridge"
 PAPER_REPLY = """Here is my reasoning for the task.
@@ -199,7 +199,7 @@ def test_hints_from_a_dataset_record_file(
     record = next(r for r in records if r.goal.strip() == "IsIn_milk_fridge")
     single = tmp_path / "record.txt"
     single.write_text(write_text([record]), encoding="utf-8")
-    hints = hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
+    hints = hints_from_record(record)
     space, cost = expected_with(robothow, "IsIn_milk_fridge", "hbtp-o", hints)
     code, result = run_json(
         capsys,

@@ -17,7 +17,7 @@ import pytest
 from hbtp.bt import full_tree
 from hbtp.datasets import DATASET_SCENARIO, Record, dataset_names, load_dataset, validate_records
 from hbtp.domains import Scenario, load_scenario
-from hbtp.planning import Hints, Limits, PlanResult, Status, hints_from_names, plan
+from hbtp.planning import Hints, Limits, PlanResult, Status, hints_from_record, plan
 from hbtp.planning.execution import execute_expansions
 from helpers import plan_cost, reaches, run_tree
 
@@ -29,7 +29,7 @@ INVALID = {TABLE1: ("29", "99"), "table2_robothow_50": ("15",)}
 
 
 def hints_of(record: Record) -> Hints:
-    return hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
+    return hints_from_record(record)
 
 
 @functools.cache

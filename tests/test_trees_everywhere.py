@@ -15,7 +15,7 @@ from hbtp.bt.simulate import simulate
 from hbtp.bt.verify import verify
 from hbtp.datasets import DATASET_SCENARIO, dataset_names, load_dataset, validate_records
 from hbtp.domains import load_scenario
-from hbtp.planning import PLANNERS, Limits, hints_from_names, plan
+from hbtp.planning import PLANNERS, Limits, hints_from_record, plan
 from helpers import SymbolicEngine
 
 
@@ -32,7 +32,7 @@ def test_every_tree_verifies_and_reaches_the_goal_in_three_engines(name: str) ->
     for record in records:
         if record.id in invalid or not record.optimal_actions:
             continue
-        hints = hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
+        hints = hints_from_record(record)
         for planner in PLANNERS:
             result = plan(
                 task, record.goal, planner, hints=hints, space="pruned", mutexes=scenario.mutexes,

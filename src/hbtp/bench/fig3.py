@@ -19,7 +19,7 @@ from typing import Any, Literal
 from hbtp.bench.plots import plot_fig3
 from hbtp.bench.report import fig3_section, write_report
 from hbtp.bench.results import ResultsFile, mean, median, write_json
-from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, run_work
+from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, hard_limit, run_work
 from hbtp.datasets import load_dataset, validate_records
 from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
@@ -80,7 +80,9 @@ def run_fig3(config: Fig3Config, out: Path, execution: Execution = DEFAULT_EXECU
         for planner in config.planners
     ]
     # Generating a scaled scenario takes seconds: allow for it in the hard limit.
-    run_work(run_one, work, results, execution, kill_after=2 * config.time_limit + 300.0, description="fig3")
+    run_work(
+        run_one, work, results, execution, kill_after=hard_limit(config.time_limit, slack=300.0), description="fig3"
+    )
     summary = summarise(list(results.ordered(w.key for w in work)), config)
     write_json(out / "summary.json", summary)
     plot_fig3(summary, out / "fig3.png")

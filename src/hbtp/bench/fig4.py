@@ -22,7 +22,7 @@ from typing import Any
 from hbtp.bench.plots import plot_fig4
 from hbtp.bench.report import fig4_section, write_report
 from hbtp.bench.results import ResultsFile, mean, write_json
-from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, run_work
+from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, hard_limit, run_work
 from hbtp.datasets import load_dataset, validate_records
 from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
@@ -105,7 +105,7 @@ def run_fig4(config: Fig4Config, out: Path, execution: Execution = DEFAULT_EXECU
         for seed in range(config.seeds)
         for planner in config.planners
     ]
-    run_work(run_one, work, results, execution, kill_after=2 * config.time_limit + 60.0, description="fig4")
+    run_work(run_one, work, results, execution, kill_after=hard_limit(config.time_limit), description="fig4")
     summary = summarise(list(results.ordered(w.key for w in work)), config)
     write_json(out / "summary.json", summary)
     plot_fig4(summary, out / "fig4.png")

@@ -21,7 +21,7 @@ from typing import Any
 from hbtp.bench.plots import plot_robustness
 from hbtp.bench.report import robustness_section, write_report
 from hbtp.bench.results import ResultsFile, mean, write_json
-from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, run_work
+from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, hard_limit, run_work
 from hbtp.bt import tree_of
 from hbtp.bt.compact import measure
 from hbtp.bt.disturb import perturbation_stats
@@ -164,7 +164,9 @@ def run_robustness(
         for record in load_dataset(dataset_of(name))[:limit]
     ]
     keys = [results.key(row) for item in work for row in item.rows]
-    run_work(run_one, work, results, execution, kill_after=2 * TIME_LIMIT + 120.0, description="robustness")
+    run_work(
+        run_one, work, results, execution, kill_after=hard_limit(TIME_LIMIT, slack=120.0), description="robustness"
+    )
     summary = summarise(list(results.ordered(keys)), scenarios, p_values)
     summary["config"] = {
         "p_values": list(p_values),

@@ -85,6 +85,12 @@ DEFAULT_EXECUTION = Execution()
 INLINE = Execution(executor="inline", progress=False)
 
 
+def hard_limit(time_limit: float, slack: float = 60.0) -> float:
+    """The default ``kill_after`` of a run limited to ``time_limit`` seconds: twice that, plus
+    ``slack`` for loading what the run needs."""
+    return 2 * time_limit + slack
+
+
 def failed_rows(work: Work, status: str, seconds: float) -> list[dict[str, Any]]:
     """The rows of a run that did not return: their known fields, unsolved, with the time it took."""
     return [{**known, "status": status, "solved": False, "time_s": round(seconds, 6)} for known in work.rows]
@@ -259,4 +265,14 @@ def _run_ray(
             ray.shutdown()
 
 
-__all__ = ["DEFAULT_EXECUTION", "EXECUTORS", "INLINE", "Execution", "ExecutorName", "Work", "failed_rows", "run_work"]
+__all__ = [
+    "DEFAULT_EXECUTION",
+    "EXECUTORS",
+    "INLINE",
+    "Execution",
+    "ExecutorName",
+    "Work",
+    "failed_rows",
+    "hard_limit",
+    "run_work",
+]

@@ -16,7 +16,7 @@ import logging
 import os
 import platform
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -84,6 +84,63 @@ def fig4_setting(quick: bool) -> Fig4Config:
     return Fig4Config(seeds=1, limit=5) if quick else Fig4Config()
 
 
+Part = Callable[[SuiteConfig, BackendRecipe, Path, Execution], tuple[Any, list[str]]]
+
+
+def _table1(config: SuiteConfig, recipe: BackendRecipe, out: Path, execution: Execution) -> tuple[Any, list[str]]:
+    table1 = {
+        setting_label(setting): run_table1(setting, out / "table1" / folder, execution)
+        for folder, setting in table1_settings(config.quick)
+    }
+    write_table1_report(out / "table1", table1)
+    return table1, [_relink(table1_section(table1), "table1")]
+
+
+def _table2(config: SuiteConfig, recipe: BackendRecipe, out: Path, execution: Execution) -> tuple[Any, list[str]]:
+    loop = LoopOptions(prompt=PromptOptions(style="completion" if recipe.llm == "local" else "chat"))
+    rows = []
+    for name in SCENARIOS:
+        table2 = Table2Config(
+            scenario=name,
+            backend=recipe.llm or "recorded",
+            runs=config.runs,
+            limit=3 if config.quick else None,
+            loop=loop,
+            b_time_limit=1.0 if config.quick else 10.0,
+        )
+        rows.append(run_table2(table2, recipe, out / "table2" / name, execution))
+    write_table2_report(out / "table2", rows)
+    return rows, [_relink(table2_section(rows), "table2")]
+
+
+def _fig3(config: SuiteConfig, recipe: BackendRecipe, out: Path, execution: Execution) -> tuple[Any, list[str]]:
+    results = {
+        label: run_fig3(figure, out / "fig3" / label, execution) for label, figure in fig3_settings(config.quick)
+    }
+    return results, [_relink(fig3_section(result), f"fig3/{label}") for label, result in results.items()]
+
+
+def _fig4(config: SuiteConfig, recipe: BackendRecipe, out: Path, execution: Execution) -> tuple[Any, list[str]]:
+    result = run_fig4(fig4_setting(config.quick), out / "fig4", execution)
+    return result, [_relink(fig4_section(result), "fig4")]
+
+
+def _robustness(config: SuiteConfig, recipe: BackendRecipe, out: Path, execution: Execution) -> tuple[Any, list[str]]:
+    quick: dict[str, Any] = {"runs": 5, "limit": 3} if config.quick else {}
+    result = run_robustness(out / "robustness", execution=execution, **quick)
+    return result, [_relink(robustness_section(result), "robustness")]
+
+
+#: Each part: run (or resume) it into the suite's folder; its summary and report sections.
+PART_RUNS: dict[str, Part] = {
+    "table1": _table1,
+    "table2": _table2,
+    "fig3": _fig3,
+    "fig4": _fig4,
+    "robustness": _robustness,
+}
+
+
 def run_suite(
     config: SuiteConfig, recipe: BackendRecipe, out: Path, execution: Execution = DEFAULT_EXECUTION
 ) -> dict[str, Any]:
@@ -92,60 +149,14 @@ def run_suite(
     sections: list[str] = []
     summary: dict[str, Any] = {"quick": config.quick, "parts": list(config.parts)}
     timings: dict[str, float] = {}
-
-    def timed(part: str, began: float) -> None:
+    for part in PARTS:
+        if part not in config.parts:
+            continue
+        began = time.perf_counter()
+        summary[part], part_sections = PART_RUNS[part](config, recipe, out, execution)
+        sections.extend(part_sections)
         timings[part] = round(time.perf_counter() - began, 1)
         log.info("bench all: %s done in %.1f s", part, timings[part])
-
-    if "table1" in config.parts:
-        began = time.perf_counter()
-        table1: dict[str, dict[str, Any]] = {}
-        for folder, setting in table1_settings(config.quick):
-            table1[setting_label(setting)] = run_table1(setting, out / "table1" / folder, execution)
-        write_table1_report(out / "table1", table1)
-        sections.append(_relink(table1_section(table1), "table1"))
-        summary["table1"] = table1
-        timed("table1", began)
-    if "table2" in config.parts:
-        began = time.perf_counter()
-        loop = LoopOptions(prompt=PromptOptions(style="completion" if recipe.llm == "local" else "chat"))
-        rows = []
-        for name in SCENARIOS:
-            table2 = Table2Config(
-                scenario=name,
-                backend=recipe.llm or "recorded",
-                runs=config.runs,
-                limit=3 if config.quick else None,
-                loop=loop,
-                b_time_limit=1.0 if config.quick else 10.0,
-            )
-            rows.append(run_table2(table2, recipe, out / "table2" / name, execution))
-        write_table2_report(out / "table2", rows)
-        sections.append(_relink(table2_section(rows), "table2"))
-        summary["table2"] = rows
-        timed("table2", began)
-    if "fig3" in config.parts:
-        began = time.perf_counter()
-        summary["fig3"] = {}
-        for label, figure in fig3_settings(config.quick):
-            result = run_fig3(figure, out / "fig3" / label, execution)
-            summary["fig3"][label] = result
-            sections.append(_relink(fig3_section(result), f"fig3/{label}"))
-        timed("fig3", began)
-    if "fig4" in config.parts:
-        began = time.perf_counter()
-        summary["fig4"] = run_fig4(fig4_setting(config.quick), out / "fig4", execution)
-        sections.append(_relink(fig4_section(summary["fig4"]), "fig4"))
-        timed("fig4", began)
-    if "robustness" in config.parts:
-        began = time.perf_counter()
-        if config.quick:
-            result = run_robustness(out / "robustness", runs=5, limit=3, execution=execution)
-        else:
-            result = run_robustness(out / "robustness", execution=execution)
-        summary["robustness"] = result
-        sections.append(_relink(robustness_section(result), "robustness"))
-        timed("robustness", began)
     summary["seconds"] = timings
     summary["machine"] = machine()
     write_json(out / "summary.json", summary)

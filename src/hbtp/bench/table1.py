@@ -11,7 +11,7 @@ from typing import Any, Literal
 from hbtp.bench.plots import plot_table1
 from hbtp.bench.report import table1_section, write_report
 from hbtp.bench.results import ResultsFile, mean, median, write_json
-from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, run_work
+from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, hard_limit, run_work
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
@@ -100,7 +100,7 @@ def run_table1(config: Table1Config, out: Path, execution: Execution = DEFAULT_E
         for record in records
         for planner in config.planners
     ]
-    run_work(run_one, work, results, execution, kill_after=kill_after(config.time_limit), description="table1")
+    run_work(run_one, work, results, execution, kill_after=hard_limit(config.time_limit), description="table1")
     summary = summarise(list(results.ordered(w.key for w in work)), config)
     write_json(out / "summary.json", summary)
     write_table1_report(out, {setting_label(config): summary})
@@ -117,11 +117,6 @@ def write_table1_report(out: Path, summaries: dict[str, dict[str, Any]]) -> None
     """``report.md`` and ``table1.png`` for one or more Table I settings."""
     write_report(out / "report.md", "Table I", [table1_section(summaries)])
     plot_table1(summaries, out / "table1.png")
-
-
-def kill_after(time_limit: float) -> float:
-    """The default hard limit of a planning run: its own limit, plus loading and generous slack."""
-    return 2 * time_limit + 60.0
 
 
 def run_one(run: Table1Run) -> dict[str, Any]:
