@@ -7,8 +7,10 @@ from typing import Any
 
 import pytest
 
+from hbtp.deadline import Deadline, TimeLimitReached
 from hbtp.domains import ground, read_domain, read_problem
-from hbtp.errors import GroundingError, InputError
+from hbtp.domains.lifted import MAX_ACTION_COST
+from hbtp.errors import GroundingError, InputError, PlanningError
 from hbtp.logic import GroundTask
 
 
@@ -284,3 +286,103 @@ def test_bindings_are_joined_from_static_facts_not_enumerated() -> None:
     assert len(task.actions) == 3 * 2 * 3
     assert {a.objects for a in task.actions} == {(x, y, z) for x in ports for y in ports for z in ports if x != y}
     assert _action(task, "Connect(o7,o42,o199)") == (["Free(o199)"], ["Wired(o7,o42,o199)"], ["Free(o199)"], 1)
+
+
+# ============================================================ bounded grounding
+CUBE = """\
+(define (domain cube)
+  (:requirements :strips)
+  (:predicates (p ?x ?y ?z) (q))
+  (:action a :parameters (?x ?y ?z) :precondition (q) :effect (p ?x ?y ?z)))
+"""
+
+
+def _objects(count: int) -> str:
+    return " ".join(f"o{i}" for i in range(count))
+
+
+def test_grounding_beyond_the_limit_is_refused_before_any_enumeration() -> None:
+    started = time.perf_counter()
+    with pytest.raises(GroundingError) as info:
+        _ground(CUBE, _problem(_objects(200), "(q)", "cube"))
+    assert time.perf_counter() - started < 1.0  # 8 million bindings are never tried
+    message = str(info.value)
+    assert "up to 8,000,000 actions" in message
+    assert "limit of 1,000,000" in message
+    assert "max_ground_actions" in message
+    assert "HBTP_MAX_GROUND_ACTIONS" in message
+    assert "a(?x ?y ?z) alone may have 8,000,000 (200 x 200 x 200 candidate objects)" in message
+    assert "\n" not in message
+
+
+def test_the_limit_is_an_option_and_an_environment_variable(monkeypatch: pytest.MonkeyPatch) -> None:
+    problem = _problem(_objects(10), "(q)", "cube")
+    assert len(_ground(CUBE, problem, max_ground_actions=1000).actions) == 1000
+    with pytest.raises(GroundingError, match="limit of 999 "):
+        _ground(CUBE, problem, max_ground_actions=999)
+    monkeypatch.setenv("HBTP_MAX_GROUND_ACTIONS", "999")
+    with pytest.raises(GroundingError, match="limit of 999 "):
+        _ground(CUBE, problem)
+    monkeypatch.setenv("HBTP_MAX_GROUND_ACTIONS", "1e6")
+    with pytest.raises(InputError, match="HBTP_MAX_GROUND_ACTIONS must be a whole number"):
+        _ground(CUBE, problem)
+    with pytest.raises(InputError, match="at least 1"):
+        _ground(CUBE, problem, max_ground_actions=0)
+
+
+def test_the_estimate_follows_static_joins_not_the_blind_product() -> None:
+    # 200**3 blind, but the static join allows at most 3 * 3 * 200 bindings (18 actions in fact).
+    objects = [f"o{i}" for i in range(200)]
+    domain = """\
+(define (domain wires)
+  (:requirements :strips :equality)
+  (:predicates (port ?x) (Free ?x) (Wired ?x ?y ?z))
+  (:action Connect :parameters (?x ?y ?z)
+    :precondition (and (port ?x) (port ?y) (not (= ?x ?y)) (Free ?z))
+    :effect (and (Wired ?x ?y ?z) (not (Free ?z)))))
+"""
+    init = "(port o7) (port o42) (port o199) " + " ".join(f"(Free {o})" for o in objects)
+    task = _ground(domain, _problem(" ".join(objects), init, "wires"), max_ground_actions=1800)
+    assert len(task.actions) == 3 * 2 * 200
+    with pytest.raises(GroundingError, match="up to 1,800 actions"):
+        _ground(domain, _problem(" ".join(objects), init, "wires"), max_ground_actions=1799)
+
+
+def test_a_deadline_stops_grounding() -> None:
+    deadline = Deadline(0.2)
+    started = time.perf_counter()
+    with pytest.raises(TimeLimitReached) as info:
+        _ground(CUBE, _problem(_objects(100), "(q)", "cube"), deadline=deadline)
+    assert time.perf_counter() - started < 1.5  # a million actions take about 20 s
+    assert str(info.value) == "time limit of 0.2 s reached while grounding"
+    assert isinstance(info.value, PlanningError)  # the command line's exit code 1: not solved
+
+
+def test_a_static_condition_with_too_many_disjunctive_cases_is_refused() -> None:
+    ors = " ".join(f"(or (s{i} ?x) (t{i} ?x))" for i in range(14))  # 2**14 cases
+    predicates = " ".join(f"(s{i} ?x) (t{i} ?x)" for i in range(14))
+    domain = f"""\
+(define (domain many)
+  (:requirements :strips :disjunctive-preconditions)
+  (:predicates (Done ?x) {predicates})
+  (:action a :parameters (?x) :precondition (and {ors}) :effect (Done ?x)))
+"""
+    with pytest.raises(GroundingError, match="16,384 cases in disjunctive normal form"):
+        _ground(domain, _problem("o1", "(s0 o1)", "many"))
+
+
+def test_costs_beyond_the_maximum_or_negative_costs_from_functions_are_refused() -> None:
+    domain = """\
+(define (domain costly)
+  (:requirements :strips :action-costs)
+  (:predicates (Done ?x))
+  (:functions (total-cost) - number (price ?x) - number)
+  (:action buy :parameters (?x)
+    :effect (and (Done ?x) (increase (total-cost) 600000) (increase (total-cost) (price ?x)))))
+"""
+    cheap = _ground(domain, _problem("a", "(= (price a) 400000)", "costly"))
+    assert cheap.actions[0].cost == MAX_ACTION_COST
+    with pytest.raises(GroundingError, match=r"buy\(a\) costs 1000001, more than the maximum 1000000"):
+        _ground(domain, _problem("a", "(= (price a) 400001)", "costly"))
+    with pytest.raises(GroundingError, match=r"cost \(price a\) is -600001, and action costs must not be negative"):
+        _ground(domain, _problem("a", "(= (price a) -600001)", "costly"))

@@ -12,9 +12,12 @@ from contextlib import contextmanager
 import pytest
 
 from hbtp.bt import full_tree
-from hbtp.domains import Scenario
+from hbtp.deadline import Deadline
+from hbtp.domains import DomainBuilder, Scenario
 from hbtp.errors import InputError
+from hbtp.logic.task import GroundTask
 from hbtp.planning import Limits, PlanResult, Status, plan
+from hbtp.planning.search import release_search_memory
 from helpers import run_tree
 
 HARD_GOAL = "IsIn_cutlets_box & IsCut_cutlets"  # OBTEA without a heuristic needs far more than a second
@@ -169,3 +172,58 @@ def test_limits_accept_positive_values_and_default_to_none() -> None:
     assert Limits() == Limits(time_s=None, max_expansions=None, memory_mb=None)
     limits = Limits(time_s=0.001, max_expansions=1, memory_mb=0.5)
     assert (limits.time_s, limits.max_expansions, limits.memory_mb) == (0.001, 1, 0.5)
+
+
+# ================================================== one deadline for the whole command
+def _chain_task(length: int) -> GroundTask:
+    """s0 = {At(p0)}; Step_i moves from p_i to p_(i+1): the heuristic set-up visits every atom."""
+    builder = DomainBuilder("chain").initial(["At(p0)"])
+    for i in range(length):
+        builder.action(f"Step(p{i})", pre=[f"At(p{i})"], add=[f"At(p{i + 1})"], delete=[f"At(p{i})"])
+    return builder.build()
+
+
+def test_a_shared_deadline_bounds_the_search_below_its_own_time_limit(robothow: Scenario) -> None:
+    deadline = Deadline(0.1)
+    limits = Limits(time_s=60, deadline=deadline)
+    with cyclic_gc_paused():
+        result = plan(robothow.task, HARD_GOAL, "obtea", mutexes=robothow.mutexes, limits=limits)
+        late = -deadline.remaining()
+    assert result.status is Status.TIMEOUT
+    assert result.message == "time limit of 0.1 s reached"
+    assert late <= 0.05
+    assert result.expansions
+
+
+def test_starting_now_gives_limits_a_deadline_of_their_time_limit() -> None:
+    before = time.perf_counter()
+    limits = Limits(time_s=5, max_expansions=3).starting_now()
+    assert limits.deadline is not None
+    assert limits.deadline.seconds == 5
+    assert before <= limits.deadline.started <= time.perf_counter()
+    assert (limits.time_s, limits.max_expansions) == (5, 3)
+    assert Limits(max_expansions=3).starting_now() == Limits(max_expansions=3)
+
+
+def test_an_expired_deadline_stops_the_heuristic_set_up() -> None:
+    task = _chain_task(3000)  # a fresh task: its heuristic tables are not cached yet
+    expired = Deadline(0.5, started=time.perf_counter() - 1.0)
+    started = time.perf_counter()
+    result = plan(task, "At(p3000)", "obtea", heuristic="lm", limits=Limits(deadline=expired))
+    assert time.perf_counter() - started < 0.5
+    assert result.status is Status.TIMEOUT
+    assert result.message == "time limit of 0.5 s reached while setting up the heuristic"
+    assert result.expansions == ()
+    # Nothing half-built was cached: with time, the same search solves.
+    assert plan(task, "At(p3000)", "obtea", heuristic="lm").cost == 3000
+
+
+def test_the_objects_of_a_search_are_frozen_until_the_next_one(robowaiter: Scenario) -> None:
+    """A collection right after a long search would walk all its objects (a second after 10 s)."""
+    release_search_memory()
+    assert gc.get_freeze_count() == 0
+    plan(robowaiter.task, "On_Coffee_Table1", "obtea", mutexes=robowaiter.mutexes)
+    assert gc.get_freeze_count() > 0
+    assert gc.isenabled()
+    release_search_memory()
+    assert gc.get_freeze_count() == 0

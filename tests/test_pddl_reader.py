@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import re
+import time
 from pathlib import Path
 
 import pytest
 
-from hbtp.domains import read_domain, read_domain_file, read_problem, read_problem_file
+from hbtp.domains import ground, read_domain, read_domain_file, read_problem, read_problem_file, write_domain
 from hbtp.domains.lifted import (
     ActionSchema,
     AddEffect,
@@ -24,7 +25,7 @@ from hbtp.domains.lifted import (
     TypedName,
     WhenEffect,
 )
-from hbtp.domains.sexpr import SList, Symbol, parse_sexprs
+from hbtp.domains.sexpr import MAX_NESTING, SList, Symbol, parse_sexprs
 from hbtp.errors import InputError, PddlError
 
 # In the texts below, "@" marks where an error must point; it is removed before reading.
@@ -169,6 +170,28 @@ DOMAIN_ERRORS = {
         _action(":parameters () :effect (and (clean till) (increase (total-cost) @lots))"),
         "not a whole number",
     ),
+    "cost in Arabic-Indic digits": (
+        _action(":parameters () :effect (and (clean till) (increase (total-cost) @\u0663))"),
+        "not a whole number",
+    ),
+    "cost with an underscore": (
+        _action(":parameters () :effect (and (clean till) (increase (total-cost) @1_0))"),
+        "not a whole number",
+    ),
+    "cost of 400 digits": (
+        _action(":parameters () :effect (and (clean till) (increase (total-cost) @" + "9" * 400 + "))"),
+        r"\(400 digits\) is too large \(at most 1000000\)",
+    ),
+    "cost just above the maximum": (
+        _action(":parameters () :effect (and (clean till) (increase (total-cost) @1000001))"),
+        "too large",
+    ),
+    "nesting 500 deep": (
+        _action(
+            ":parameters () :precondition " + "(and " * 98 + "@" + "(and " * 402 + ")" * 500 + " :effect (clean till)"
+        ),
+        "nested deeper than 100 levels",
+    ),
     "increase of another function": (
         _action(":parameters (?p - place) :effect (increase @(dist ?p) 1)"),
         r"only \(increase \(total-cost\)",
@@ -235,6 +258,8 @@ PROBLEM_ERRORS = {
         PROBLEM.replace("(and (at apple till))", "(and (at apple till) @(< (dist shelf) 3))"),
         r"numeric conditions \(<\)",
     ),
+    "numeric fact in Arabic-Indic digits": (PROBLEM.replace("(dist shelf) 4)", "(dist shelf) @\u0664)"), "not a whole"),
+    "numeric fact of 400 digits": (PROBLEM.replace("(dist shelf) 4)", "(dist shelf) @" + "4" * 400 + ")"), "too large"),
     "exists in goal": (
         PROBLEM.replace("(and (at apple till))", "@(exists (?x - item) (at ?x till))"),
         r"quantified conditions \(exists\)",
@@ -416,3 +441,49 @@ def test_file_errors_name_the_file(tmp_path: Path) -> None:
 def test_exactly_one_define_form(text: str) -> None:
     with pytest.raises(PddlError, match="exactly one"):
         read_domain(text)
+
+
+def test_a_utf8_byte_order_mark_is_skipped(tmp_path: Path) -> None:
+    domain_path, problem_path = tmp_path / "domain.pddl", tmp_path / "problem.pddl"
+    domain_path.write_bytes(b"\xef\xbb\xbf" + (DOMAIN % "").encode())
+    problem_path.write_text(PROBLEM, encoding="utf-8-sig")
+    domain = read_domain_file(domain_path)
+    assert domain == read_domain(DOMAIN % "")
+    assert read_problem_file(problem_path, domain) == read_problem(PROBLEM, domain)
+    # Positions stay those of the text without the mark.
+    with pytest.raises(PddlError) as info:
+        read_domain("\ufeff(define (domain d) @x)".replace("@", ""))
+    assert (info.value.line, info.value.column) == (1, 20)
+
+
+def test_costs_up_to_the_maximum_and_signed_numerals_are_read() -> None:
+    domain = read_domain(DOMAIN % _action_text("(increase (total-cost) 1000000)"))
+    assert domain.actions[0].effect == AndEffect((AddEffect(AtomFormula("clean", ("till",))), CostEffect(1000000)))
+    plus = read_domain(DOMAIN % _action_text("(increase (total-cost) +07)"))
+    assert plus.actions[0].effect == AndEffect((AddEffect(AtomFormula("clean", ("till",))), CostEffect(7)))
+
+
+def _action_text(cost: str) -> str:
+    return f"  (:action act :parameters () :effect (and (clean till) {cost}))\n"
+
+
+def test_nesting_up_to_the_limit_is_read_and_grounded() -> None:
+    depth = MAX_NESTING - 6  # define, :action, and the (not ...) / (clean ...) around the chain
+    precondition = "(and " * depth + "(near self till)" + ")" * depth
+    domain = read_domain(DOMAIN % f"  (:action act :parameters () :precondition {precondition} :effect (clean till))\n")
+    task = ground(domain, read_problem(PROBLEM, domain))
+    assert [a.name for a in task.actions] == ["act()"]
+    assert write_domain(domain).count("(and ") == depth
+
+
+def test_many_actions_and_objects_are_read_in_linear_time() -> None:
+    # Duplicate checks used to compare every action (and every object) with all earlier ones.
+    actions = "".join(f"  (:action a{i} :parameters () :effect (clean till))\n" for i in range(20_000))
+    started = time.perf_counter()
+    domain = read_domain(DOMAIN % actions)
+    objects = " ".join(f"o{i}" for i in range(20_000))
+    problem = read_problem(PROBLEM.replace("apple - food", f"apple {objects} - food"), domain)
+    elapsed = time.perf_counter() - started
+    assert len(domain.actions) == 20_000
+    assert len(problem.objects) == 20_002  # apple, the 20,000 and shelf
+    assert elapsed < 6.0  # quadratic checks took about a minute

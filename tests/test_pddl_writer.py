@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import json
 from importlib import resources
 from pathlib import Path
 
 import pytest
 
+from hbtp.cli import main
 from hbtp.domains import (
+    DomainBuilder,
     Scenario,
     ground,
     load_scenario,
@@ -171,3 +174,32 @@ def test_names_of_type_object_keep_their_type_before_typed_names() -> None:
     again = read_domain(text)
     assert again == domain
     assert again.types == {"item": "object", "place": "object", "food": "item"}
+
+
+def test_grounded_export_names_the_literals_no_action_changes(robothow_small: Scenario) -> None:
+    task = robothow_small.task
+    domain_text, _ = write_grounded(task, task.resolve_goal("IsOpen(fridge)"))
+    assert domain_text.startswith(
+        "(define (domain robothow-small)\n"
+        "  ; No action changes IsStanding: to keep it in the state when reading this file\n"
+        "  ; back into hbtp, add --keep-fluent IsStanding\n  (:requirements"
+    )
+    plain = DomainBuilder("t").initial(["At(a)"]).action("Go(b)", pre=["At(a)"], add=["At(b)"]).build()
+    assert write_grounded(plain, plain.resolve_goal("At(b)"))[0].startswith("(define (domain t)\n  (:requirements")
+
+
+def test_grounded_export_read_back_with_keep_fluent_has_the_same_state(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """The export of issue 11 lost IsStanding(self) from s0: no action changes it, so it read back as static."""
+    assert main(["export-pddl", "-s", "robothow-small", "-g", "IsOpen(fridge)", "-o", str(tmp_path)]) == 0
+    assert main(["ground", "-s", "robothow-small", "--json"]) == 0
+    original = json.loads(capsys.readouterr().out.split("\n", 1)[1])
+    files = [str(tmp_path / "domain.pddl"), str(tmp_path / "problem.pddl")]
+    assert main(["ground", "--pddl", *files, "--keep-fluent", "IsStanding", "--json"]) == 0
+    again = json.loads(capsys.readouterr().out)
+    assert again["initial_state"] == original["initial_state"]
+    assert (again["s0"], again["atoms"], again["actions"]) == (original["s0"], original["atoms"], original["actions"])
+    assert main(["ground", "--pddl", *files, "--json"]) == 0
+    static = json.loads(capsys.readouterr().out)
+    assert set(original["initial_state"]) - set(static["initial_state"]) == {"IsStanding(self)"}

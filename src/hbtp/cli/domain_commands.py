@@ -74,7 +74,9 @@ def ground(
 @click.option("-g", "--goal", required=True, help='Goal, e.g. "IsIn_milk_fridge & IsClose_fridge".')
 @click.option("-o", "--out", "out_dir", required=True, type=click.Path(file_okay=False), help="Output folder.")
 @click.option(
-    "--lifted", is_flag=True, help="Write the lifted domain and problem instead of the grounded STRIPS encoding."
+    "--lifted",
+    is_flag=True,
+    help="Write the lifted domain and problem (they read back unchanged) instead of the grounded encoding.",
 )
 def export_pddl(
     source: ScenarioSource,
@@ -82,7 +84,14 @@ def export_pddl(
     out_dir: str,
     lifted: bool,
 ) -> int:
-    """Write domain.pddl and problem.pddl for a goal (Fast Downward accepts the grounded encoding)."""
+    """Write domain.pddl and problem.pddl for a goal.
+
+    By default the grounded STRIPS encoding, for other planners such as Fast Downward: one
+    parameterless action per ground action. Read back into hbtp it is not the same scenario (no
+    objects; a literal no action changes becomes static unless --keep-fluent names it, as a comment
+    in the file says). --lifted writes the domain and problem themselves (read -> write -> read is the
+    identity); grounding them again needs the scenario's --objects, --keep-fluent and --mutex options.
+    """
     loaded = source.load()
     resolved = loaded.task.resolve_goal(goal)
     out = Path(out_dir)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+from hbtp.domains.lifted import MAX_ACTION_COST
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom, parse_atom
 from hbtp.logic.task import GroundAction, GroundTask
@@ -45,6 +46,8 @@ class DomainBuilder:
             raise InputError(f"action {signature} is defined twice")
         if cost < 0:
             raise InputError(f"action {signature}: cost must not be negative")
+        if cost > MAX_ACTION_COST:
+            raise InputError(f"action {signature}: cost {cost} is larger than the maximum {MAX_ACTION_COST}")
         self._actions[signature] = (
             [parse_atom(a) for a in pre],
             [parse_atom(a) for a in add],

@@ -6,6 +6,13 @@ and ``(forall (?z) (when (not (= ?z ?x)) (not (IsNear self ?z))))`` becomes a li
 
 Bindings are enumerated by joining the static facts that an action's precondition requires (each
 disjunct of its static part in turn), so an action over 126 objects never tries all pairs blindly.
+
+Before enumerating, the number of ground actions of each schema is bounded from above (the join's
+size: per static atom, at most its number of facts; per remaining parameter, the objects of its
+type). A task whose bound exceeds ``max_ground_actions`` (by default ``$HBTP_MAX_GROUND_ACTIONS``, else
+:data:`MAX_GROUND_ACTIONS`; a ground action takes about 1-2 KB of memory) is refused with a one-line
+:class:`~hbtp.errors.GroundingError` before any memory is spent; a ``deadline`` stops grounding with
+:class:`~hbtp.deadline.TimeLimitReached`.
 """
 
 from __future__ import annotations
@@ -13,10 +20,14 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import logging
+import math
+import os
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
+from hbtp.deadline import Deadline, TimeLimitReached
 from hbtp.domains.lifted import (
+    MAX_ACTION_COST,
     OBJECT_TYPE,
     ActionSchema,
     AddEffect,
@@ -45,6 +56,23 @@ log = logging.getLogger(__name__)
 
 Binding = dict[str, str]
 
+#: The default bound on the number of ground actions (see the module docstring).
+MAX_GROUND_ACTIONS = 1_000_000
+#: The most disjuncts a static precondition or ``when`` guard may have once put in disjunctive normal form.
+MAX_DNF_TERMS = 10_000
+_PHASE = "grounding"
+LIMIT_VARIABLE = "HBTP_MAX_GROUND_ACTIONS"
+
+
+def ground_actions_limit() -> int:
+    """The default bound on ground actions: ``$HBTP_MAX_GROUND_ACTIONS`` when set, else :data:`MAX_GROUND_ACTIONS`."""
+    text = os.environ.get(LIMIT_VARIABLE, "").strip()
+    if not text:
+        return MAX_GROUND_ACTIONS
+    if not text.isascii() or not text.isdigit() or int(text) < 1:
+        raise InputError(f"{LIMIT_VARIABLE} must be a whole number of at least 1, not {text!r}")
+    return int(text)
+
 
 @dataclass(frozen=True, slots=True)
 class _Literal:
@@ -61,6 +89,8 @@ def ground(
     keep_fluent: Iterable[str] = (),
     object_categories: Iterable[str] = (),
     name: str | None = None,
+    max_ground_actions: int | None = None,
+    deadline: Deadline | None = None,
 ) -> GroundTask:
     """Ground ``problem`` of ``domain``.
 
@@ -68,8 +98,25 @@ def ground(
     (for example ``IsStanding``: a disturbance can make it false, so trees must test it).
     ``object_categories`` names the static categories whose members form the task's object set O
     (the objects an LLM reasons about); by default O is the problem's ``:objects``.
+    A task whose estimated number of ground actions exceeds ``max_ground_actions`` (default:
+    :func:`ground_actions_limit`) is refused (:class:`~hbtp.errors.GroundingError`); past ``deadline``,
+    :class:`~hbtp.deadline.TimeLimitReached`.
     """
-    task = _Grounder(domain, problem, frozenset(keep_fluent)).run(name or problem.name)
+    if max_ground_actions is None:
+        max_ground_actions = ground_actions_limit()
+    if max_ground_actions < 1:
+        raise InputError(f"max_ground_actions must be at least 1, not {max_ground_actions}")
+    grounder = _Grounder(domain, problem, frozenset(keep_fluent), deadline)
+    grounder.check_size(max_ground_actions)
+    stopped = ""
+    try:
+        task = grounder.run(name or problem.name)
+    except TimeLimitReached as stop:
+        stopped = str(stop)
+    if stopped:
+        # Raised afresh, outside the handler: the first exception's traceback would keep the partial
+        # grounding (hundreds of thousands of objects) alive while the caller reports the timeout.
+        raise TimeLimitReached(stopped)
     categories = tuple(object_categories)
     if not categories:
         return task
@@ -83,9 +130,13 @@ def ground(
 
 
 class _Grounder:
-    def __init__(self, domain: Domain, problem: Problem, keep_fluent: frozenset[str]) -> None:
+    def __init__(
+        self, domain: Domain, problem: Problem, keep_fluent: frozenset[str], deadline: Deadline | None = None
+    ) -> None:
         self.domain = domain
         self.problem = problem
+        self.deadline = deadline
+        self.ticks = 0
         unknown = sorted(keep_fluent - set(domain.predicates))
         if unknown:
             raise InputError(f"keep_fluent names unknown predicate(s): {', '.join(unknown)}")
@@ -124,10 +175,73 @@ class _Grounder:
             merged.extend(self.by_type.get(t, ()))
         return tuple(dict.fromkeys(merged))
 
+    def tick(self) -> None:
+        """Count a unit of work; every 4096 units, check the deadline."""
+        self.ticks += 1
+        if self.ticks & 4095 == 0 and self.deadline is not None:
+            self.deadline.check(_PHASE)
+
+    # ------------------------------------------------------------------ size
+    def estimate(self, schema: ActionSchema) -> int:
+        """An upper bound of the number of ground actions of ``schema`` (see the module docstring)."""
+        static_parts, _ = self._split_precondition(schema.precondition)
+        params = schema.parameters
+        everything = math.prod(len(self.domain_of(p)) for p in params)
+        terms = _dnf_checked(And(tuple(static_parts)), schema)
+        total = 0
+        for term in terms:
+            total += self._estimate_term(term, params)
+            if total >= everything:
+                return everything
+        return total
+
+    def _estimate_term(self, term: list[_Literal], params: tuple[TypedName, ...]) -> int:
+        candidates = {p.name: len(self.domain_of(p)) for p in params}
+        for lit in term:
+            formula = lit.formula
+            if lit.positive and isinstance(formula, Equals):
+                for variable, other in ((formula.left, formula.right), (formula.right, formula.left)):
+                    if is_variable(variable) and not is_variable(other) and variable in candidates:
+                        candidates[variable] = min(candidates[variable], 1)
+        positives = [lit.formula for lit in term if lit.positive and isinstance(lit.formula, AtomFormula)]
+        positives.sort(key=lambda atom: len(self.static_index.get(atom.predicate, ())))
+        bound: set[str] = set()
+        size = 1
+        for atom in positives:
+            new = [t for t in dict.fromkeys(atom.terms) if is_variable(t) and t not in bound]
+            facts = len(self.static_index.get(atom.predicate, ()))
+            if not facts:
+                return 0
+            if new:
+                size *= min(facts, math.prod(candidates.get(v, facts) for v in new))
+                bound.update(new)
+        for name, count in candidates.items():
+            if name not in bound:
+                size *= count
+        return size
+
+    def check_size(self, limit: int) -> None:
+        """Refuse a task whose estimated number of ground actions exceeds ``limit``."""
+        estimates = [(self.estimate(schema), -index) for index, schema in enumerate(self.domain.actions)]
+        total = sum(estimate for estimate, _ in estimates)
+        if total <= limit:
+            return
+        largest, index = max(estimates)
+        schema = self.domain.actions[-index]
+        counts = " x ".join(str(len(self.domain_of(p))) for p in schema.parameters) or "1"
+        variables = " ".join(p.name for p in schema.parameters)
+        raise GroundingError(
+            f"grounding would create up to {total:,} actions, more than the limit of {limit:,} "
+            f"(max_ground_actions, or {LIMIT_VARIABLE} for the command line): {schema.name}({variables}) "
+            f"alone may have {largest:,} ({counts} candidate objects)"
+        )
+
     # ------------------------------------------------------------------- run
     def run(self, task_name: str) -> GroundTask:
         grounded: list[tuple[Atom, frozenset[Atom], frozenset[Atom], frozenset[Atom], int]] = []
         for schema in self.domain.actions:
+            if self.deadline is not None:
+                self.deadline.check(_PHASE)
             grounded.extend(self._ground_schema(schema))
         grounded.sort(key=lambda g: str(g[0]))
         all_atoms: set[Atom] = set(self.initial)
@@ -164,7 +278,8 @@ class _Grounder:
         static_parts, fluent_parts = self._split_precondition(schema.precondition)
         params = schema.parameters
         seen: set[tuple[str, ...]] = set()
-        for binding in self._bindings(static_parts, params, {}):
+        for binding in self._bindings(static_parts, params, {}, schema):
+            self.tick()
             key = tuple(binding[p.name] for p in params)
             if key in seen:
                 continue
@@ -185,6 +300,10 @@ class _Grounder:
             costs: list[int] = []
             self._apply_effect(schema.effect, binding, schema, add, delete, costs)
             cost = sum(costs) if self.domain.uses_action_costs else 1
+            if cost > MAX_ACTION_COST:
+                raise GroundingError(
+                    f"action {Atom(schema.name, key)} costs {cost}, more than the maximum {MAX_ACTION_COST}"
+                )
             yield Atom(schema.name, key), frozenset(pre), frozenset(add), frozenset(delete - add), cost
 
     # ----------------------------------------------------- static / fluent
@@ -206,10 +325,12 @@ class _Grounder:
         return static, fluent
 
     # --------------------------------------------------------------- binding
-    def _bindings(self, static_parts: list[Formula], params: Iterable[TypedName], start: Binding) -> Iterator[Binding]:
+    def _bindings(
+        self, static_parts: list[Formula], params: Iterable[TypedName], start: Binding, schema: ActionSchema
+    ) -> Iterator[Binding]:
         """Every binding of ``params`` (extending ``start``) under which ``static_parts`` all hold."""
         params = tuple(params)
-        for term in _dnf(And(tuple(static_parts))):
+        for term in _dnf_checked(And(tuple(static_parts)), schema):
             yield from self._join(term, params, start)
 
     def _join(self, term: list[_Literal], params: tuple[TypedName, ...], start: Binding) -> Iterator[Binding]:
@@ -223,6 +344,7 @@ class _Grounder:
             facts = self.static_index.get(atom.predicate, [])
             extended: list[Binding] = []
             for binding in partial:
+                self.tick()
                 for fact in facts:
                     new = _unify(atom.terms, fact, binding)
                     if new is not None:
@@ -234,6 +356,7 @@ class _Grounder:
             unbound = [p for p in params if p.name not in binding]
             domains = [self.domain_of(p) for p in unbound]
             for values in itertools.product(*domains):
+                self.tick()
                 full = dict(binding)
                 full.update(zip((p.name for p in unbound), values, strict=True))
                 if self._types_ok(params, full) and all(self._holds(lit, full) for lit in term):
@@ -322,7 +445,7 @@ class _Grounder:
             guard: list[Formula] = []
             if isinstance(effect.body, WhenEffect) and self._is_static(effect.body.condition):
                 guard = _flatten_and(effect.body.condition)
-            for extended in self._bindings(guard, effect.variables, binding):
+            for extended in self._bindings(guard, effect.variables, binding, schema):
                 self._apply_effect(effect.body, extended, schema, add, delete, costs)
         else:
             amount = effect.amount
@@ -334,7 +457,13 @@ class _Grounder:
                     raise GroundingError(
                         f"action {schema.name!r}: cost ({' '.join((key[0], *key[1]))}) is not defined in :init"
                     )
-                costs.append(self.problem.numeric_init[key])
+                value = self.problem.numeric_init[key]
+                if value < 0:
+                    raise GroundingError(
+                        f"action {schema.name!r}: cost ({' '.join((key[0], *key[1]))}) is {value}, "
+                        "and action costs must not be negative"
+                    )
+                costs.append(value)
 
 
 # ======================================================================= helpers
@@ -362,6 +491,29 @@ def _flatten_and(formula: Formula) -> list[Formula]:
             out.extend(_flatten_and(part))
         return out
     return [formula]
+
+
+def _dnf_size(formula: Formula, positive: bool = True) -> int:
+    """The number of terms :func:`_dnf` gives, computed without building them."""
+    if isinstance(formula, AtomFormula | Equals):
+        return 1
+    if isinstance(formula, Not):
+        return _dnf_size(formula.operand, not positive)
+    if isinstance(formula, Imply):
+        return _dnf_size(Or((Not(formula.antecedent), formula.consequent)), positive)
+    sizes = [_dnf_size(part, positive) for part in formula.parts]
+    return math.prod(sizes) if isinstance(formula, And) == positive else sum(sizes)
+
+
+def _dnf_checked(formula: Formula, schema: ActionSchema) -> list[list[_Literal]]:
+    """:func:`_dnf`, refusing a static condition whose normal form would exceed :data:`MAX_DNF_TERMS`."""
+    size = _dnf_size(formula)
+    if size > MAX_DNF_TERMS:
+        raise GroundingError(
+            f"action {schema.name!r}: its static condition has {size:,} cases in disjunctive normal form, "
+            f"more than the limit of {MAX_DNF_TERMS:,}"
+        )
+    return _dnf(formula)
 
 
 def _dnf(formula: Formula, positive: bool = True) -> list[list[_Literal]]:

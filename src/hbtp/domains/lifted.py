@@ -14,6 +14,11 @@ from dataclasses import dataclass, field
 
 OBJECT_TYPE = "object"
 
+#: The largest action cost accepted (an action's summed ``increase`` effects, a numeric fact used as a
+#: cost). Costs stay exact as floats in the heuristics even when multiplied by HBTP-O's alpha (10^4)
+#: and summed over long plans (2^53 is about 9 * 10^15).
+MAX_ACTION_COST = 1_000_000
+
 
 def is_variable(term: str) -> bool:
     return term.startswith("?")

@@ -6,10 +6,13 @@ objects). Anything outside the subset is rejected with the construct and its lin
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable
 from pathlib import Path
 
+from hbtp.deadline import Deadline
 from hbtp.domains.lifted import (
+    MAX_ACTION_COST,
     OBJECT_TYPE,
     ActionSchema,
     AddEffect,
@@ -46,6 +49,9 @@ SUPPORTED_REQUIREMENTS = frozenset(
         ":adl",
     }
 )
+#: A whole number as PDDL writes it: ASCII digits with an optional sign (Python's ``int`` would also
+#: take ``1_0``, ``٣`` or surrounding spaces).
+_WHOLE_NUMBER = re.compile(r"[+-]?[0-9]+")
 UNSUPPORTED_SECTIONS = {
     ":derived": "derived predicates",
     ":durative-action": "durative actions",
@@ -58,8 +64,9 @@ UNSUPPORTED_SECTIONS = {
 class _Reader:
     """Shared state while reading one file: its name, and where each type name is first written, for messages."""
 
-    def __init__(self, source: str) -> None:
+    def __init__(self, source: str, deadline: Deadline | None = None) -> None:
         self.source = source
+        self.deadline = deadline
         self.type_uses: dict[str, Symbol] = {}
         self.declared_types: set[str] | None = None  # known once the domain's types are read
 
@@ -80,7 +87,7 @@ class _Reader:
         return expr
 
     def define(self, text: str, kind: str) -> tuple[str, list[Expr], SList]:
-        exprs = parse_sexprs(text, self.source)
+        exprs = parse_sexprs(text, self.source, self.deadline)
         if len(exprs) != 1:
             where = exprs[1] if len(exprs) > 1 else None
             raise self.fail("expected exactly one (define ...) form", where)
@@ -115,10 +122,11 @@ class _Reader:
             pending.append(symbol)
             index += 1
         result.extend(TypedName(s.text) for s in pending)
-        names = [t.name for t in result]
-        for i, name in enumerate(names):
-            if name in names[:i]:
-                raise self.fail(f"{name!r} is declared twice", items[0])
+        names: set[str] = set()
+        for typed in result:
+            if typed.name in names:
+                raise self.fail(f"{typed.name!r} is declared twice", items[0])
+            names.add(typed.name)
         return result
 
     def type_spec(self, expr: Expr) -> tuple[str, ...]:
@@ -131,6 +139,17 @@ class _Reader:
         for symbol in symbols:
             self.type_uses.setdefault(symbol.text, symbol)
         return tuple(symbol.text for symbol in symbols)
+
+    def number(self, symbol: Symbol, what: str = "") -> int:
+        """A whole number written in ASCII digits, at most :data:`MAX_ACTION_COST` in size."""
+        text = symbol.text
+        if _WHOLE_NUMBER.fullmatch(text) is None:
+            raise self.fail(f"{what}{text[:40]!r} is not a whole number", symbol)
+        digits = text.lstrip("+-").lstrip("0")
+        if len(digits) > len(str(MAX_ACTION_COST)) or int(text) > MAX_ACTION_COST or int(text) < -MAX_ACTION_COST:
+            shown = text if len(text) <= 20 else f"{text[:12]}... ({len(digits)} digits)"
+            raise self.fail(f"{what}{shown} is too large (at most {MAX_ACTION_COST})", symbol)
+        return int(text)
 
     def check_types(self, names: Iterable[TypedName], what: str, declared: set[str]) -> None:
         """Reject a type that is not declared, pointing at the first place it is written."""
@@ -234,10 +253,7 @@ class _Reader:
             raise self.fail("only (increase (total-cost) ...) is supported", target)
         amount = node.items[2]
         if isinstance(amount, Symbol):
-            try:
-                value = int(amount.text)
-            except ValueError:
-                raise self.fail(f"cost {amount.text!r} is not a whole number", amount) from None
+            value = self.number(amount, "cost ")
             if value < 0:
                 raise self.fail("action costs must not be negative", amount)
             return CostEffect(value, node.line)
@@ -284,9 +300,9 @@ class _Scope:
 
 
 # ====================================================================== domain
-def read_domain(text: str, source: str = "<domain>") -> Domain:
-    """Parse a PDDL domain."""
-    reader = _Reader(source)
+def read_domain(text: str, source: str = "<domain>", deadline: Deadline | None = None) -> Domain:
+    """Parse a PDDL domain (past ``deadline``, :class:`~hbtp.deadline.TimeLimitReached`)."""
+    reader = _Reader(source, deadline)
     name, sections, _ = reader.define(text, "domain")
     requirements: list[str] = []
     types: dict[str, str] = {}
@@ -339,10 +355,14 @@ def read_domain(text: str, source: str = "<domain>") -> Domain:
 
     scope = _Scope(predicates, functions, {c.name for c in constants}, set())
     actions: list[ActionSchema] = []
-    for node in action_nodes:
+    action_names: set[str] = set()
+    for position, node in enumerate(action_nodes):
+        if deadline is not None and position & 255 == 255:
+            deadline.check("reading the PDDL files")
         action = _read_action(reader, node, scope, declared_types)
-        if any(a.name == action.name for a in actions):
+        if action.name in action_names:
             raise reader.fail(f"action {action.name!r} is declared twice", node)
+        action_names.add(action.name)
         actions.append(action)
     return Domain(name, tuple(requirements), types, tuple(constants), predicates, functions, tuple(actions))
 
@@ -412,9 +432,9 @@ def _read_action(reader: _Reader, node: SList, scope: _Scope, declared_types: se
 
 
 # ===================================================================== problem
-def read_problem(text: str, domain: Domain, source: str = "<problem>") -> Problem:
-    """Parse a PDDL problem of ``domain``."""
-    reader = _Reader(source)
+def read_problem(text: str, domain: Domain, source: str = "<problem>", deadline: Deadline | None = None) -> Problem:
+    """Parse a PDDL problem of ``domain`` (past ``deadline``, :class:`~hbtp.deadline.TimeLimitReached`)."""
+    reader = _Reader(source, deadline)
     name, sections, _ = reader.define(text, "problem")
     domain_name = ""
     objects: list[TypedName] = []
@@ -491,22 +511,18 @@ def _read_numeric_fact(reader: _Reader, fact: SList, scope: _Scope) -> tuple[tup
     if fname not in scope.functions:
         raise reader.fail(f"unknown function {fname!r}", target)
     args = tuple(reader.term(t, scope) for t in target.items[1:])
-    value_symbol = reader.expect_symbol(fact.items[2], "a number")
-    try:
-        value = int(value_symbol.text)
-    except ValueError:
-        raise reader.fail(f"{value_symbol.text!r} is not a whole number", value_symbol) from None
+    value = reader.number(reader.expect_symbol(fact.items[2], "a number"))
     return (fname, args), value
 
 
-def read_domain_file(path: str | Path) -> Domain:
+def read_domain_file(path: str | Path, deadline: Deadline | None = None) -> Domain:
     path = Path(path)
-    return read_domain(_read_text(path), str(path))
+    return read_domain(_read_text(path), str(path), deadline)
 
 
-def read_problem_file(path: str | Path, domain: Domain) -> Problem:
+def read_problem_file(path: str | Path, domain: Domain, deadline: Deadline | None = None) -> Problem:
     path = Path(path)
-    return read_problem(_read_text(path), domain, str(path))
+    return read_problem(_read_text(path), domain, str(path), deadline)
 
 
 def _read_text(path: Path) -> str:

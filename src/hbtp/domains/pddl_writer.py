@@ -169,6 +169,11 @@ def write_grounded(
     an independent planner's optimal cost on it is directly comparable. A predicate named like a
     PDDL keyword (RoboWaiter's ``Exists``) makes Fast Downward and unified-planning fail; with
     ``rename_keywords`` such predicates are written as ``Exists_`` (see :func:`keyword_safe_predicates`).
+
+    It is meant for other planners, not as a round trip: read back, its actions are parameterless
+    (``Walk_milk()``), every name is a constant, and a literal that no action changes (``IsStanding``,
+    kept in the state with ``keep_fluent``) becomes a static fact unless ``--keep-fluent`` names it
+    again; a comment at the top of the domain names them. The lifted files round-trip.
     """
     name = domain_name or _pddl_name(task.name)
     symbols = [*task.constants, *task.objects]
@@ -178,8 +183,16 @@ def write_grounded(
     for atom in goal.atoms:
         used.setdefault(atom.predicate, len(atom.args))
     rename = keyword_safe_predicates(used) if rename_keywords else {}
+    changed = {task.atoms[i].predicate for action in task.actions for i in (*action.add, *action.delete)}
+    unchanged = sorted(rename.get(p, p) for p in used if p not in changed and p in task.predicates)
     domain = [
         f"(define (domain {name})\n",
+        (
+            f"  ; No action changes {', '.join(unchanged)}: to keep it in the state when reading this file\n"
+            f"  ; back into hbtp, add {' '.join(f'--keep-fluent {p}' for p in unchanged)}\n"
+            if unchanged
+            else ""
+        ),
         "  (:requirements :strips :action-costs)\n",
         f"  (:constants {' '.join(symbols)})\n" if symbols else "",
         "  (:predicates\n",

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
+from hbtp.deadline import Deadline
 from hbtp.errors import PddlError
 
 
@@ -38,49 +40,45 @@ class SList:
 Expr = Symbol | SList
 
 
-def parse_sexprs(text: str, source: str = "<string>") -> list[Expr]:
-    """Read every top-level expression of ``text``."""
+#: Deepest nesting of parentheses accepted. Real PDDL nests a few levels; the readers and the grounder
+#: walk formulas recursively, so a deeper file is refused with its position instead of overflowing.
+MAX_NESTING = 100
+
+_TOKEN = re.compile(r"[()]|[^\s();]+")
+_BOM = "\ufeff"
+
+
+def parse_sexprs(text: str, source: str = "<string>", deadline: Deadline | None = None) -> list[Expr]:
+    """Read every top-level expression of ``text`` (a leading UTF-8 byte-order mark is skipped).
+
+    Past ``deadline`` it raises :class:`~hbtp.deadline.TimeLimitReached`."""
     stack: list[tuple[list[Expr], int, int]] = []
     top: list[Expr] = []
-    line, column = 1, 1
-    index = 0
-    length = len(text)
-    while index < length:
-        char = text[index]
-        if char == ";":
-            while index < length and text[index] != "\n":
-                index += 1
-            continue
-        if char == "\n":
-            line += 1
-            column = 1
-            index += 1
-            continue
-        if char.isspace():
-            column += 1
-            index += 1
-            continue
-        if char == "(":
-            stack.append(([], line, column))
-            column += 1
-            index += 1
-            continue
-        if char == ")":
-            if not stack:
-                raise PddlError("unbalanced ')'", source, line, column)
-            items, open_line, open_column = stack.pop()
-            node = SList(tuple(items), open_line, open_column)
-            (stack[-1][0] if stack else top).append(node)
-            column += 1
-            index += 1
-            continue
-        start_column = column
-        start = index
-        while index < length and not text[index].isspace() and text[index] not in "();":
-            index += 1
-        column += index - start
-        token = Symbol(text[start:index], line, start_column)
-        (stack[-1][0] if stack else top).append(token)
+    if text.startswith(_BOM):
+        text = text[1:]
+    current = top
+    for line_number, line in enumerate(text.split("\n"), start=1):
+        if deadline is not None and line_number & 1023 == 0:
+            deadline.check("reading the PDDL files")
+        comment = line.find(";")
+        if comment >= 0:
+            line = line[:comment]
+        for match in _TOKEN.finditer(line):
+            token = match.group()
+            column = match.start() + 1
+            if token == "(":
+                if len(stack) >= MAX_NESTING:
+                    raise PddlError(f"parentheses nested deeper than {MAX_NESTING} levels", source, line_number, column)
+                stack.append((current, line_number, column))
+                current = []
+            elif token == ")":
+                if not stack:
+                    raise PddlError("unbalanced ')'", source, line_number, column)
+                outer, open_line, open_column = stack.pop()
+                outer.append(SList(tuple(current), open_line, open_column))
+                current = outer
+            else:
+                current.append(Symbol(token, line_number, column))
     if stack:
         _, open_line, open_column = stack[-1]
         raise PddlError("'(' is never closed", source, open_line, open_column)

@@ -25,10 +25,12 @@ import math
 from collections.abc import Collection, Iterable, Mapping, Sequence
 from typing import Literal, Protocol
 
+from hbtp.deadline import Deadline
 from hbtp.logic.task import GroundAction, GroundTask
 
 HeuristicName = Literal["none", "hmax", "lm"]
 HEURISTICS: tuple[str, ...] = ("none", "hmax", "lm")
+_SETUP = "setting up the heuristic"
 
 
 class Heuristic(Protocol):
@@ -38,11 +40,15 @@ class Heuristic(Protocol):
 
 
 def hmax_table(
-    task: GroundTask, actions: Sequence[GroundAction], costs: Mapping[int, float] | None = None
+    task: GroundTask,
+    actions: Sequence[GroundAction],
+    costs: Mapping[int, float] | None = None,
+    deadline: Deadline | None = None,
 ) -> list[float]:
     """For each atom id, its h_max cost from s0 with ``actions`` (``inf`` if never reachable).
 
-    ``costs`` overrides action costs by action index (the discounted costs of HBTP).
+    ``costs`` overrides action costs by action index (the discounted costs of HBTP). Past
+    ``deadline`` it raises :class:`~hbtp.deadline.TimeLimitReached`.
     """
     cost = [math.inf] * len(task.atoms)
     waiting = [len(a.pre) for a in actions]
@@ -66,8 +72,12 @@ def hmax_table(
         if not action.pre:
             relax(action, 0.0)
     done = [False] * len(task.atoms)
+    pops = 0
     while heap:
         value, atom = heapq.heappop(heap)
+        pops += 1
+        if deadline is not None and pops & 1023 == 0:
+            deadline.check(_SETUP)
         if done[atom] or value > cost[atom]:
             continue
         done[atom] = True
@@ -80,7 +90,7 @@ def hmax_table(
 
 
 def landmark_table(
-    task: GroundTask, actions: Sequence[GroundAction], reachable: Sequence[float]
+    task: GroundTask, actions: Sequence[GroundAction], reachable: Sequence[float], deadline: Deadline | None = None
 ) -> list[frozenset[int] | None]:
     """For each atom id, its fact landmarks from s0 (``None`` when unreachable)."""
     table: list[frozenset[int] | None] = [None] * len(task.atoms)
@@ -91,7 +101,9 @@ def landmark_table(
     changed = True
     while changed:
         changed = False
-        for action in usable:
+        for position, action in enumerate(usable):
+            if deadline is not None and position & 255 == 0:
+                deadline.check(_SETUP)
             parts = [table[p] for p in action.pre]
             if any(part is None for part in parts):
                 continue
@@ -131,10 +143,10 @@ def landmark_costs(
 class SpaceAnalysis:
     """What the heuristics need from an action space, independent of the goal (cached)."""
 
-    def __init__(self, task: GroundTask, actions: Sequence[GroundAction]) -> None:
+    def __init__(self, task: GroundTask, actions: Sequence[GroundAction], deadline: Deadline | None = None) -> None:
         self.actions = actions
-        self.hmax = hmax_table(task, actions)
-        self.landmarks = landmark_table(task, actions, self.hmax)
+        self.hmax = hmax_table(task, actions, deadline=deadline)
+        self.landmarks = landmark_table(task, actions, self.hmax, deadline)
         self.pre_atoms: frozenset[int] = frozenset().union(*(a.pre for a in actions)) if actions else frozenset()
         self.shares = landmark_costs(task, actions, self.pre_atoms)
         s0 = task.initial_state
@@ -151,8 +163,10 @@ class SpaceAnalysis:
 _ANALYSES: dict[tuple[int, object], tuple[GroundTask, SpaceAnalysis]] = {}
 
 
-def analyse_space(task: GroundTask, actions: Sequence[GroundAction]) -> SpaceAnalysis:
-    """The (cached) analysis of ``actions`` in ``task``; the full space and small spaces are cached."""
+def analyse_space(task: GroundTask, actions: Sequence[GroundAction], deadline: Deadline | None = None) -> SpaceAnalysis:
+    """The (cached) analysis of ``actions`` in ``task``; the full space and small spaces are cached.
+
+    Past ``deadline`` it raises :class:`~hbtp.deadline.TimeLimitReached` (and caches nothing)."""
     key: tuple[int, object] = (
         id(task),
         "full" if len(actions) == len(task.actions) else tuple(a.index for a in actions),
@@ -160,7 +174,7 @@ def analyse_space(task: GroundTask, actions: Sequence[GroundAction]) -> SpaceAna
     cached = _ANALYSES.get(key)
     if cached is not None and cached[0] is task:
         return cached[1]
-    analysis = SpaceAnalysis(task, actions)
+    analysis = SpaceAnalysis(task, actions, deadline)
     if len(_ANALYSES) >= 64:
         _ANALYSES.pop(next(iter(_ANALYSES)))
     _ANALYSES[key] = (task, analysis)
@@ -224,23 +238,25 @@ def build_heuristic(
     *,
     scale: float = 1.0,
     discounts: Mapping[int, float] | None = None,
+    deadline: Deadline | None = None,
 ) -> Heuristic | None:
     """The heuristic ``name`` (``none``, ``hmax``, ``lm``) for this action space.
 
     Action costs are multiplied by ``scale``, and the actions in ``discounts`` (by index) cost what
     it says instead: the step costs of HBTP. With changed costs, ``lm`` uses the landmark sum alone
-    (still admissible and consistent for those costs) and ``hmax`` is recomputed.
+    (still admissible and consistent for those costs) and ``hmax`` is recomputed. Past ``deadline``
+    it raises :class:`~hbtp.deadline.TimeLimitReached`.
     """
     if name == "none":
         return None
-    analysis = analyse_space(task, actions)
+    analysis = analyse_space(task, actions, deadline)
     discounts = discounts or {}
     plain = scale == 1.0 and not discounts
     if name == "hmax":
         if plain:
             return HMax(analysis.hmax)
         costs = {a.index: discounts.get(a.index, a.cost * scale) for a in actions}
-        return HMax(hmax_table(task, actions, costs))
+        return HMax(hmax_table(task, actions, costs, deadline))
     if name != "lm":
         raise ValueError(f"unknown heuristic {name!r}")
     # Shares: cached for the space (relevant = atoms some precondition needs), scaled, then patched

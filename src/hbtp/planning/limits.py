@@ -2,15 +2,19 @@
 
 The search asks :class:`LimitWatch` after every expansion and every 512 generated children, so a run
 ends within a few milliseconds of its time limit; on a limit the result still carries the partial
-tree and the statistics.
+tree and the statistics. ``time_s`` counts from the start of each search; a :class:`Deadline`
+(``Limits.deadline``, started with the command) also bounds it, so the time spent loading, grounding
+and in earlier searches of the same command (``--hints oracle``) is charged to the same limit.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 from dataclasses import dataclass
 
+from hbtp.deadline import Deadline
 from hbtp.errors import InputError
 from hbtp.planning.result import Status
 
@@ -19,11 +23,13 @@ _PAGE = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
 
 @dataclass(frozen=True)
 class Limits:
-    """``time_s``: wall-clock seconds; ``max_expansions``: conditions expanded; ``memory_mb``: resident size."""
+    """``time_s``: wall-clock seconds per search; ``max_expansions``: conditions expanded; ``memory_mb``:
+    resident size; ``deadline``: a wall-clock deadline shared with the rest of the command."""
 
     time_s: float | None = None
     max_expansions: int | None = None
     memory_mb: float | None = None
+    deadline: Deadline | None = None
 
     def __post_init__(self) -> None:
         if self.time_s is not None and not self.time_s > 0:
@@ -32,6 +38,13 @@ class Limits:
             raise InputError(f"expansion limit must be at least 1, not {self.max_expansions}")
         if self.memory_mb is not None and not self.memory_mb > 0:
             raise InputError(f"memory limit must be a positive number of MB, not {self.memory_mb}")
+
+    def starting_now(self) -> Limits:
+        """These limits with a :class:`Deadline` of ``time_s`` seconds from now, to hand to every phase
+        of a command (loading, heuristic set-up, every search) so that ``time_s`` bounds all of it."""
+        if self.time_s is None:
+            return self
+        return dataclasses.replace(self, deadline=Deadline(self.time_s))
 
 
 def resident_mb() -> float:
@@ -49,6 +62,17 @@ class LimitWatch:
     def __init__(self, limits: Limits, started: float) -> None:
         self.limits = limits
         self.deadline = started + limits.time_s if limits.time_s is not None else None
+        self.seconds = limits.time_s
+        shared = limits.deadline
+        if shared is not None and (self.deadline is None or shared.at < self.deadline):
+            self.deadline = shared.at
+            self.seconds = shared.seconds
+
+    def as_deadline(self) -> Deadline | None:
+        """The time limit of this run as a :class:`Deadline` (for the heuristic set-up)."""
+        if self.deadline is None or self.seconds is None:
+            return None
+        return Deadline(self.seconds, self.deadline - self.seconds)
 
     def timed_out(self) -> bool:
         return self.deadline is not None and time.perf_counter() >= self.deadline
@@ -64,7 +88,7 @@ class LimitWatch:
 
     def reason(self, status: Status) -> str:
         if status is Status.TIMEOUT:
-            return f"time limit of {self.limits.time_s} s reached"
+            return f"time limit of {self.seconds or 0:g} s reached"
         if status is Status.NODE_LIMIT:
             return f"expansion limit of {self.limits.max_expansions} reached"
         if status is Status.MEMORY_LIMIT:

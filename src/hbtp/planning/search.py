@@ -36,6 +36,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Literal
 
+from hbtp.deadline import TimeLimitReached
 from hbtp.domains.mutex import Mutexes
 from hbtp.logic.task import Goal, GroundAction, GroundTask
 from hbtp.planning.execution import execute_expansions
@@ -83,11 +84,16 @@ class _Node:
 # is deferred to the start of the next search, before that one's clock starts, so a search ends
 # within a few milliseconds of its time limit.
 _PARKED: list[object] = []
+# Whether the objects of the last search are frozen (see :func:`search`).
+_FROZEN: list[bool] = [False]
 
 
 def release_search_memory() -> None:
     """Free what the last search left parked (done automatically when the next one starts)."""
     _PARKED.clear()
+    if _FROZEN[0]:
+        gc.unfreeze()
+        _FROZEN[0] = False
 
 
 def search(
@@ -124,11 +130,17 @@ def search(
             names = " and ".join(task.names(clash))
             return finish(Status.UNSOLVABLE, f"the goal asks for {names}, which cannot hold together")
     # The search allocates many small objects and no reference cycles; the cyclic collector's full
-    # passes (50-130 ms on large searches) would make the run overshoot its time limit.
+    # passes (50-130 ms on large searches) would make the run overshoot its time limit. Afterwards the
+    # objects are frozen (moved out of the collector's sight, an O(1) step) until the next search
+    # releases them: otherwise the first collection after the search, typically while the tree is
+    # built, would walk every one of them (a second after a 10 s search).
     collecting = gc.isenabled()
     gc.disable()
     try:
-        run = _Search(task, goal, actions, config, mutexes, hints, limits, started, extra_expansions)
+        try:
+            run = _Search(task, goal, actions, config, mutexes, hints, limits, started, extra_expansions)
+        except TimeLimitReached as stop:
+            return finish(Status.TIMEOUT, str(stop))
         if run.heuristic is not None and math.isinf(run.heuristic(goal.ids)):
             dead = [a for a in sorted(goal.ids) if math.isinf(run.heuristic((a,)))]
             names = ", ".join(task.names(dead)) or str(goal)
@@ -138,6 +150,8 @@ def search(
         return result
     finally:
         if collecting:
+            gc.freeze()
+            _FROZEN[0] = True
             gc.enable()
 
 
@@ -184,11 +198,12 @@ class _Search:
         # orders the search (A*) except for BT Expansion, which stays breadth-first; for every
         # planner it drops dead ends.
         discounts = {i: float(self.owed_cost(task.actions[i])) for i in self.path_index}
+        deadline = self.watch.as_deadline()
         self.heuristic: Heuristic | None = build_heuristic(
-            config.heuristic, task, actions, goal.ids, scale=float(self.scale), discounts=discounts
+            config.heuristic, task, actions, goal.ids, scale=float(self.scale), discounts=discounts, deadline=deadline
         )
         self.astar = self.heuristic is not None and config.step_cost != "unit"
-        self.pre_landmarks = analyse_space(task, actions).pre_landmarks if self.heuristic is not None else {}
+        self.pre_landmarks = analyse_space(task, actions, deadline).pre_landmarks if self.heuristic is not None else {}
         # The achievers of an atom: the task's index for large spaces, a small index of our own
         # for pruned ones (filtering the task's 3000-entry lists would cost more than building it).
         self.achievers: Sequence[Sequence[int]] | dict[int, list[int]] = task.achievers

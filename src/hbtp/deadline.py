@@ -1,0 +1,56 @@
+"""A wall-clock deadline shared by every phase of one command.
+
+``hbtp plan -t 60`` starts one :class:`Deadline` when the command starts and hands it to loading
+(parsing, grounding, mutex inference), to the heuristic set-up and to the search, so the whole
+command ends within about a second of its time limit. A phase that cannot finish in time raises
+:class:`TimeLimitReached` (exit code 1: not solved); the search instead returns a TIMEOUT result.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from hbtp.errors import InputError, PlanningError
+
+
+class TimeLimitReached(PlanningError):
+    """The time limit passed before a phase (grounding, mutex inference, heuristic set-up) was done."""
+
+
+@dataclass(frozen=True)
+class Deadline:
+    """``seconds`` after ``started`` (a :func:`time.perf_counter` value; default: now)."""
+
+    seconds: float
+    started: float = field(default_factory=time.perf_counter)
+
+    def __post_init__(self) -> None:
+        if not self.seconds > 0:
+            raise InputError(f"time limit must be a positive number of seconds, not {self.seconds}")
+
+    @property
+    def at(self) -> float:
+        """The :func:`time.perf_counter` value at which the deadline passes."""
+        return self.started + self.seconds
+
+    def remaining(self) -> float:
+        """Seconds left (negative once passed)."""
+        return self.at - time.perf_counter()
+
+    def expired(self) -> bool:
+        return time.perf_counter() >= self.at
+
+    def message(self, phase: str) -> str:
+        return f"time limit of {self.seconds:g} s reached while {phase}"
+
+    def check(self, phase: str) -> None:
+        """Raise :class:`TimeLimitReached` naming ``phase`` (e.g. ``"grounding"``) once the deadline passed."""
+        if self.expired():
+            raise TimeLimitReached(self.message(phase))
+
+
+def check_deadline(deadline: Deadline | None, phase: str) -> None:
+    """:meth:`Deadline.check` when there is a deadline."""
+    if deadline is not None:
+        deadline.check(phase)
