@@ -6,13 +6,9 @@ PDDL files inside the package, described by ``data/scenarios.toml``.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
-import hashlib
+import gc
 import logging
-import os
-import pickle
-import sys
 import time
 import tomllib
 from collections.abc import Iterable, Mapping, Sequence
@@ -21,7 +17,9 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from hbtp import __version__
+from hbtp.deadline import Deadline, check_deadline
+from hbtp.domains import cache
+from hbtp.domains.cache import cache_dir
 from hbtp.domains.grounding import ground
 from hbtp.domains.lifted import Problem
 from hbtp.domains.mutex import Mutexes, infer_mutexes
@@ -94,14 +92,28 @@ def load_scenario(name: str) -> Scenario:
 def _load_shipped(name: str) -> Scenario:
     entry = _manifest()[name]
     with resources.as_file(DATA) as folder:
-        cache = _cache_file(name, folder, entry)
-        cached = _read_cache(cache)
-        if cached is not None:
-            return cached
+        domain_file, problem_file = folder / entry["domain"], folder / entry["problem"]
+        location = _cache_entry(name, folder, entry)
+        if location is not None:
+            started = time.perf_counter()
+            cached = cache.read_cached(location)
+            if cached is not None:
+                return Scenario(
+                    name=name,
+                    title=cached.title,
+                    description=cached.description,
+                    task=cached.task,
+                    mutexes=cached.mutexes,
+                    domain_file=domain_file,
+                    problem_file=problem_file,
+                    fewshot=cached.fewshot,
+                    test_set=cached.test_set,
+                    load_seconds=time.perf_counter() - started,
+                )
         mutex = entry.get("mutex", {})
         scenario = load_pddl_scenario(
-            folder / entry["domain"],
-            folder / entry["problem"],
+            domain_file,
+            problem_file,
             name=name,
             title=entry.get("title", name),
             description=entry.get("description", ""),
@@ -112,65 +124,28 @@ def _load_shipped(name: str) -> Scenario:
             fewshot=entry.get("fewshot"),
             test_set=entry.get("test"),
         )
-        _write_cache(cache, scenario)
+        if location is not None:
+            cache.write_cached(
+                location,
+                cache.CachedScenario(
+                    scenario.task,
+                    scenario.mutexes,
+                    scenario.title,
+                    scenario.description,
+                    scenario.fewshot,
+                    scenario.test_set,
+                ),
+            )
         return scenario
 
 
-# ----------------------------------------------------------------- disk cache
-def cache_dir() -> Path | None:
-    """Where loaded scenarios are cached: ``$HBTP_CACHE_DIR``, else ``$XDG_CACHE_HOME/hbtp`` or
-    ``~/.cache/hbtp``; ``None`` when ``HBTP_NO_CACHE`` is set."""
-    if os.environ.get("HBTP_NO_CACHE"):
+# ----------------------------------------------------------------- disk cache (see hbtp.domains.cache)
+def _cache_entry(name: str, folder: Path, entry: dict[str, Any]) -> cache.CacheEntry | None:
+    """Where the shipped scenario ``name`` is cached, keyed by everything it is built from."""
+    if cache_dir() is None:
         return None
-    explicit = os.environ.get("HBTP_CACHE_DIR")
-    if explicit:
-        return Path(explicit)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "hbtp"
-
-
-def _cache_file(name: str, folder: Path, entry: dict[str, Any]) -> Path | None:
-    """A cache file named by the hash of everything the scenario is built from."""
-    directory = cache_dir()
-    if directory is None:
-        return None
-    digest = hashlib.sha256(f"{__version__}|{sys.version_info[:2]}|{name}|{sorted(entry.items())!r}".encode())
-    for file_name in (entry["domain"], entry["problem"], "scenarios.toml"):
-        digest.update((folder / file_name).read_bytes())
-    # The code that builds a scenario is part of the key too, so a changed grounder never reads a
-    # stale cache.
-    package = Path(__file__).resolve().parents[1]
-    for source in sorted([*package.glob("domains/*.py"), *package.glob("logic/*.py")]):
-        digest.update(source.read_bytes())
-    return directory / f"{name}-{digest.hexdigest()[:16]}.pickle"
-
-
-def _read_cache(path: Path | None) -> Scenario | None:
-    if path is None or not path.exists():
-        return None
-    started = time.perf_counter()
-    try:
-        with path.open("rb") as handle:
-            scenario = pickle.load(handle)
-    except Exception as error:  # a stale or broken cache file is rebuilt, never fatal
-        log.warning("ignoring unreadable scenario cache %s: %s", path, error)
-        return None
-    if not isinstance(scenario, Scenario):
-        return None
-    return dataclasses.replace(scenario, load_seconds=time.perf_counter() - started)
-
-
-def _write_cache(path: Path | None, scenario: Scenario) -> None:
-    if path is None:
-        return
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        temporary = path.with_suffix(f".{os.getpid()}.tmp")
-        with temporary.open("wb") as handle:
-            pickle.dump(scenario, handle, protocol=pickle.HIGHEST_PROTOCOL)
-        os.replace(temporary, path)
-    except OSError as error:
-        log.info("could not write the scenario cache %s: %s", path, error)
+    files = [folder / entry["domain"], folder / entry["problem"], folder / "scenarios.toml"]
+    return cache.cache_entry(name, cache.scenario_key(name, entry, files))
 
 
 def load_pddl_scenario(
@@ -187,17 +162,42 @@ def load_pddl_scenario(
     fewshot: str | None = None,
     test_set: str | None = None,
     problem: Problem | None = None,
+    max_ground_actions: int | None = None,
+    deadline: Deadline | None = None,
 ) -> Scenario:
     """Load a scenario from a user's PDDL domain and problem files (``problem``, when given, replaces
-    the problem file's content, e.g. a generated larger problem)."""
+    the problem file's content, e.g. a generated larger problem).
+
+    ``max_ground_actions`` bounds the grounding (default ``$HBTP_MAX_GROUND_ACTIONS`` or 1,000,000; see
+    :func:`hbtp.domains.grounding.ground`); past
+    ``deadline``, :class:`~hbtp.deadline.TimeLimitReached` names the phase that was running.
+    """
     started = time.perf_counter()
     domain_path, problem_path = Path(domain_file), Path(problem_file)
-    domain = read_domain_file(domain_path)
-    if problem is None:
-        problem = read_problem_file(problem_path, domain)
-    task_name = name or problem.name
-    task = ground(domain, problem, keep_fluent=keep_fluent, object_categories=objects, name=task_name)
-    mutexes = infer_mutexes(task, mutex_groups, mutex_nogoods)
+    # Reading and grounding build hundreds of thousands of small acyclic objects; the cyclic
+    # collector's repeated full passes over them would take more than half of the time.
+    collecting = gc.isenabled()
+    gc.disable()
+    try:
+        domain = read_domain_file(domain_path, deadline)
+        if problem is None:
+            problem = read_problem_file(problem_path, domain, deadline)
+        check_deadline(deadline, "reading the PDDL files")
+        task_name = name or problem.name
+        task = ground(
+            domain,
+            problem,
+            keep_fluent=keep_fluent,
+            object_categories=objects,
+            name=task_name,
+            max_ground_actions=max_ground_actions,
+            deadline=deadline,
+        )
+        check_deadline(deadline, "grounding")
+        mutexes = infer_mutexes(task, mutex_groups, mutex_nogoods, deadline)
+    finally:
+        if collecting:
+            gc.enable()
     elapsed = time.perf_counter() - started
     log.info("loaded %s: %d actions in %.3f s", task_name, len(task.actions), elapsed)
     return Scenario(
@@ -222,9 +222,20 @@ def read_mutex_file(path: str | Path) -> Mapping[str, Sequence[Sequence[str]]]:
             data = tomllib.load(handle)
     except OSError as error:
         raise InputError(f"{path}: cannot read mutex file: {error.strerror or error}") from None
+    except UnicodeDecodeError as error:
+        raise InputError(f"{path}: not UTF-8 text (byte {error.start}): a mutex file is TOML") from None
     except tomllib.TOMLDecodeError as error:
         raise InputError(f"{path}: not valid TOML: {error}") from None
     unknown = set(data) - {"groups", "nogoods"}
     if unknown:
         raise InputError(f"{path}: unknown key(s) {', '.join(sorted(unknown))} (expected groups, nogoods)")
-    return {"groups": data.get("groups", []), "nogoods": data.get("nogoods", [])}
+    declared: dict[str, Sequence[Sequence[str]]] = {}
+    for key in ("groups", "nogoods"):
+        value = data.get(key, [])
+        if not isinstance(value, list) or not all(
+            isinstance(spec, list) and all(isinstance(atom, str) for atom in spec) for spec in value
+        ):
+            example = '[["IsOpen(?x)", "IsClose(?x)"]]'
+            raise InputError(f"{path}: {key} must be a list of lists of atoms such as {example}, not {value!r:.60}")
+        declared[key] = value
+    return declared
