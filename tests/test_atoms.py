@@ -125,3 +125,43 @@ def test_empty_conjunct_is_rejected(text: str) -> None:
 def test_only_ampersand_joins_literals(text: str) -> None:
     with pytest.raises(InputError, match="malformed literal"):
         parse_conjunction(text)
+
+
+# ------------------------------------------------------------------- long goals (issue 14, G)
+def test_a_long_conjunction_is_parsed_without_pairwise_comparisons(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Removing repeats compares atoms by hash, not each with every earlier one (was quadratic)."""
+    comparisons = 0
+    equal = Atom.__eq__
+
+    def counting(self: Atom, other: object) -> bool:
+        nonlocal comparisons
+        comparisons += 1
+        return equal(self, other)
+
+    monkeypatch.setattr(Atom, "__eq__", counting)
+    monkeypatch.setattr(Atom, "__hash__", lambda self: hash((self.predicate, self.args)))
+    texts = [f"IsIn(x{i},y{i})" for i in range(3000)]
+    atoms = parse_conjunction(" & ".join(texts + texts[:10]))
+    assert comparisons <= 100  # the ten repeats, and rare hash collisions (the old way: 4.5 million)
+    assert [str(a) for a in atoms] == texts
+
+
+def test_a_10000_literal_conjunction_keeps_order_and_drops_repeats() -> None:
+    texts = [f"P_a{i % 7000}" for i in range(10_000)]
+    atoms = parse_conjunction(" & ".join(texts))
+    assert len(atoms) == 7000
+    assert atoms[0] == Atom("P", ("a0",))
+    assert atoms[-1] == Atom("P", ("a6999",))
+
+
+def test_errors_about_long_goals_stay_short() -> None:
+    text = " & ".join(f"IsIn(x{i},y{i})" for i in range(10_000)) + " &"
+    with pytest.raises(InputError, match="empty conjunct") as error:
+        parse_conjunction(text)
+    message = str(error.value)
+    assert len(message) < 200
+    assert f"({len(text.strip())} characters)" in message
+    assert "number 10001 of 10001" in message
+    with pytest.raises(InputError, match="malformed literal") as error:
+        parse_atom("IsIn(x,y) " * 1000)
+    assert len(str(error.value)) < 200

@@ -14,7 +14,9 @@ action deletes from its precondition (Fast Downward's invariant synthesis does t
 
 Domains may *declare* further groups and forbidden combinations (nogoods) that cannot be proved,
 for example when a quirk of the action models makes them false in odd corners of the state space.
-Declared mutexes only prune the search; they never make a tree wrong, as every tree is verified.
+Declared mutexes only prune the search; they never make a tree wrong, as every tree is verified, and
+they never make a goal "unsolvable": :func:`hbtp.planning.plan` confirms a failed search that they
+pruned with the proved mutexes alone (:meth:`Mutexes.proved_only`).
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
+from hbtp.deadline import Deadline
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
 from hbtp.logic.task import GroundTask
@@ -88,12 +91,23 @@ class Mutexes:
                     return nogood
         return None
 
+    @property
+    def declared(self) -> bool:
+        """Whether some groups or nogoods are declared rather than proved (they may be false)."""
+        return bool(self.nogoods) or any(not group.proved for group in self.groups)
+
     def pairs(self) -> int:
         """How many pairs of literals are mutually exclusive."""
         return sum(len(p) for p in self.partners) // 2
 
     def proved_only(self) -> Mutexes:
         """The proved groups alone: pruning with them never cuts off a reachable condition."""
+        return self._proved
+
+    @cached_property
+    def _proved(self) -> Mutexes:
+        if not self.declared:
+            return self
         return Mutexes(tuple(g for g in self.groups if g.proved), (), self.atom_count)
 
 
@@ -102,8 +116,10 @@ def infer_mutexes(
     task: GroundTask,
     declared_groups: Sequence[Sequence[str]] = (),
     declared_nogoods: Sequence[Sequence[str]] = (),
+    deadline: Deadline | None = None,
 ) -> Mutexes:
-    """Prove invariant groups of ``task`` and add the declared ones.
+    """Prove invariant groups of ``task`` and add the declared ones (past ``deadline``,
+    :class:`~hbtp.deadline.TimeLimitReached`).
 
     ``declared_groups`` are lifted patterns such as ``["IsLeftHandEmpty(self)", "IsLeftHolding(self,*)"]``
     (``?x`` a group parameter, ``*`` the counted argument); ``declared_nogoods`` are lifted atom sets
@@ -111,7 +127,7 @@ def infer_mutexes(
     """
     synth = _Synthesis(task)
     groups: dict[frozenset[int], MutexGroup] = {}
-    for pattern in synth.proved_patterns():
+    for pattern in synth.proved_patterns(deadline):
         for atoms in synth.groups(pattern).values():
             if len(atoms) > 1 and frozenset(atoms) not in groups:
                 groups[frozenset(atoms)] = MutexGroup(frozenset(atoms), _describe(pattern), True)
@@ -156,11 +172,13 @@ class _Synthesis:
                 patterns.append(((predicate, tuple(slots)),))
         return patterns
 
-    def proved_patterns(self) -> list[Pattern]:
+    def proved_patterns(self, deadline: Deadline | None = None) -> list[Pattern]:
         queue = deque(_canonical(p) for p in self.initial_candidates())
         seen = set(queue)
         proved: list[Pattern] = []
         while queue and len(seen) < MAX_CANDIDATES:
+            if deadline is not None:
+                deadline.check("inferring mutexes")
             pattern = queue.popleft()
             holds, extension_points = self.check(pattern)
             if holds:

@@ -17,6 +17,15 @@ from hbtp.errors import InputError
 _NAME = r"[A-Za-z][A-Za-z0-9_\-]*"
 _PAREN_FORM = re.compile(rf"^\s*({_NAME})\s*\(\s*([^()]*)\)\s*$")
 _BARE_NAME = re.compile(rf"^\s*({_NAME})\s*$")
+_SHOWN = 80  # characters of an offending text quoted in an error message
+
+
+def _quoted(text: str) -> str:
+    """``text`` stripped and quoted for a one-line message, shortened when long."""
+    text = text.strip()
+    if len(text) <= _SHOWN:
+        return repr(text)
+    return f"{text[:_SHOWN]!r}... ({len(text)} characters)"
 
 
 @dataclass(frozen=True, slots=True, order=True)
@@ -45,36 +54,37 @@ def parse_atom(text: str) -> Atom:
         inner = match.group(2).strip()
         args = tuple(a.strip() for a in inner.split(",")) if inner else ()
         if any(not re.fullmatch(_NAME, a) for a in args):
-            raise InputError(f"malformed literal {text.strip()!r}")
+            raise InputError(f"malformed literal {_quoted(text)}")
         return Atom(match.group(1), args)
     match = _BARE_NAME.match(text)
     if match:
         predicate, *rest = match.group(1).split("_")
         if not predicate or any(not a for a in rest):
-            raise InputError(f"malformed literal {text.strip()!r}")
+            raise InputError(f"malformed literal {_quoted(text)}")
         return Atom(predicate, tuple(rest))
-    raise InputError(f"malformed literal {text.strip()!r} (expected Pred(a,b) or Pred_a_b)")
+    raise InputError(f"malformed literal {_quoted(text)} (expected Pred(a,b) or Pred_a_b)")
 
 
 def split_conjunction(text: str) -> list[str]:
     """Split ``A & B & C`` into the texts of its conjuncts (``&`` is the only connective)."""
     parts: list[str] = []
     depth = 0
-    current: list[str] = []
-    for char in text:
+    start = 0
+    for position, char in enumerate(text):
         if char == "(":
             depth += 1
         elif char == ")":
             depth -= 1
-        if depth == 0 and char in "&":
-            parts.append("".join(current))
-            current = []
-            continue
-        current.append(char)
-    parts.append("".join(current))
+        elif char == "&" and depth == 0:
+            parts.append(text[start:position])
+            start = position + 1
+    parts.append(text[start:])
     pieces = [p.strip() for p in parts]
-    if any(not p for p in pieces):
-        raise InputError(f"malformed conjunction {text.strip()!r}: an empty conjunct")
+    for number, piece in enumerate(pieces, 1):
+        if not piece:
+            raise InputError(
+                f"malformed conjunction {_quoted(text)}: an empty conjunct (number {number} of {len(pieces)})"
+            )
     return pieces
 
 
@@ -82,9 +92,4 @@ def parse_conjunction(text: str) -> tuple[Atom, ...]:
     """Read a goal such as ``IsIn_milk_fridge & IsClose(fridge)`` into atoms, in order, without repeats."""
     if not text.strip():
         raise InputError("empty goal")
-    atoms: list[Atom] = []
-    for piece in split_conjunction(text):
-        atom = parse_atom(piece)
-        if atom not in atoms:
-            atoms.append(atom)
-    return tuple(atoms)
+    return tuple(dict.fromkeys(parse_atom(piece) for piece in split_conjunction(text)))

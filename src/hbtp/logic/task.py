@@ -123,6 +123,11 @@ class GroundTask:
         return frozenset(self.objects) | frozenset(self.constants)
 
     @cached_property
+    def static_arities(self) -> dict[str, int]:
+        """The arity of each static (compiled-away) predicate."""
+        return {fact.predicate: len(fact.args) for fact in self.static_facts}
+
+    @cached_property
     def categories(self) -> dict[str, tuple[str, ...]]:
         """Unary static predicates read as object categories: name -> sorted members."""
         table: dict[str, list[str]] = {}
@@ -161,7 +166,7 @@ class GroundTask:
         """Raise :class:`UnknownSymbolError` unless ``atom`` is well formed for this domain."""
         arity = self.predicates.get(atom.predicate)
         if arity is None:
-            static_arity = {f.predicate: len(f.args) for f in self.static_facts}.get(atom.predicate)
+            static_arity = self.static_arities.get(atom.predicate)
             if static_arity is None:
                 raise UnknownSymbolError(
                     f"unknown predicate {atom.predicate!r} in {atom} (task {self.name!r} has: "

@@ -17,8 +17,12 @@ from hbtp.planning.planners import plan
 def optimal_plan(
     task: GroundTask, goal: Goal, mutexes: Mutexes | None = None, limits: Limits | None = None
 ) -> list[int]:
-    """The actions of a cost-optimal plan (OBTEA with h_max over the full action space)."""
-    result = plan(task, goal, "obtea", space="full", mutexes=mutexes, heuristic="lm", limits=limits)
+    """The actions of a cost-optimal plan (OBTEA with the landmark heuristic over the full action space).
+
+    Only the *proved* ``mutexes`` prune: declared ones may be false and could cut off the optimum.
+    """
+    proved = mutexes.proved_only() if mutexes is not None else None
+    result = plan(task, goal, "obtea", space="full", mutexes=proved, heuristic="lm", limits=limits)
     if not result.solved:
         raise PlanningError(f"no optimal plan for the oracle: {result.status.value} ({result.message})")
     return list(result.solution)

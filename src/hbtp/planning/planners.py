@@ -3,15 +3,19 @@
 from __future__ import annotations
 
 import dataclasses
+import logging
+import math
+from collections.abc import Sequence
+from fractions import Fraction
 from typing import Literal
 
 from hbtp.domains.mutex import Mutexes
 from hbtp.errors import InputError
-from hbtp.logic.task import Goal, GroundTask
+from hbtp.logic.task import Goal, GroundAction, GroundTask
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
 from hbtp.planning.hints import Hints, ResolvedHints, pruned_action_space, resolve_hints
 from hbtp.planning.limits import Limits
-from hbtp.planning.result import PlanResult
+from hbtp.planning.result import PlanResult, SearchStats, Status
 from hbtp.planning.search import Number, SearchConfig, search
 
 PLANNERS: dict[str, SearchConfig] = {
@@ -27,6 +31,11 @@ PLANNER_DESCRIPTIONS = {
     "hbtp-s": "HBTP-S: heuristic path actions cost 0 while owed (fastest, satisficing)",
 }
 Space = Literal["full", "pruned"]
+#: The largest α: the heuristics compute in floats, exact while D·α stays below 2^53 (with plan costs up
+#: to 10^6); far larger α overflow them.
+MAX_ALPHA = 10**9
+
+log = logging.getLogger(__name__)
 
 
 def planner_config(name: str, *, heuristic: HeuristicName = "none", alpha: Number = 10_000) -> SearchConfig:
@@ -37,9 +46,24 @@ def planner_config(name: str, *, heuristic: HeuristicName = "none", alpha: Numbe
         raise InputError(f"unknown planner {name!r}; choose one of: {', '.join(PLANNERS)}") from None
     if heuristic not in HEURISTICS:
         raise InputError(f"unknown heuristic {heuristic!r}; choose one of: {', '.join(HEURISTICS)}")
-    if not alpha > 0:
-        raise InputError(f"alpha must be positive, not {alpha}")
-    return dataclasses.replace(base, heuristic=heuristic, alpha=alpha)
+    return dataclasses.replace(base, heuristic=heuristic, alpha=check_alpha(alpha))
+
+
+def check_alpha(alpha: object) -> Number:
+    """``alpha`` if it is a valid HBTP-O discount divisor: a finite number from 1 to :data:`MAX_ALPHA`.
+
+    An owed action costs D(a)/α, so α < 1 would make the heuristic path dearer than any other
+    path, and a non-finite α has no step cost at all. Whole floats become ints (exact arithmetic).
+    """
+    if isinstance(alpha, bool) or not isinstance(alpha, int | float | Fraction):
+        raise InputError(f"alpha must be a number, not {alpha!r}")
+    if isinstance(alpha, float) and not math.isfinite(alpha):
+        raise InputError(f"alpha must be a finite number, not {alpha}")
+    if not 1 <= alpha <= MAX_ALPHA:
+        raise InputError(f"alpha must be between 1 and {MAX_ALPHA:,}, not {alpha}")
+    if isinstance(alpha, float) and alpha.is_integer():
+        return int(alpha)
+    return alpha
 
 
 def plan(
@@ -80,7 +104,66 @@ def plan(
         raise InputError(f"unknown action space {space!r}; choose full or pruned")
     if extra_expansions < 0:
         raise InputError(f"extra expansions must not be negative, not {extra_expansions}")
-    return search(
+    return confirmed_search(
         task, resolved_goal, actions, config, mutexes=mutexes, hints=resolved, limits=limits,
         extra_expansions=extra_expansions,
     )  # fmt: skip
+
+
+def confirmed_search(
+    task: GroundTask,
+    goal: Goal,
+    actions: Sequence[GroundAction],
+    config: SearchConfig,
+    *,
+    mutexes: Mutexes | None = None,
+    hints: ResolvedHints | None = None,
+    limits: Limits | None = None,
+    extra_expansions: int = 0,
+) -> PlanResult:
+    """:func:`search`, whose UNSOLVABLE verdicts are proofs even when ``mutexes`` has declared ones.
+
+    Declared mutexes may be false, so a failure they took part in (a goal they reject, or an open
+    list they helped to empty) proves nothing: the verdict then comes from the same search with the
+    proved mutexes alone, within what is left of ``limits`` (a timeout if nothing is left).
+    """
+    result = search(
+        task, goal, actions, config, mutexes=mutexes, hints=hints, limits=limits, extra_expansions=extra_expansions
+    )
+    if mutexes is None or not _declared_pruned(result, mutexes):
+        return result
+    log.info("%s: no solution with the declared mutexes; searching again with the proved ones only", goal)
+    rest = _remaining(limits or Limits(), result.stats)
+    if isinstance(rest, Status):
+        message = f"{rest.value} before the search without the declared mutexes could decide"
+        return dataclasses.replace(result, status=rest, message=message)
+    again = search(
+        task, goal, actions, config, mutexes=mutexes.proved_only(), hints=hints, limits=rest,
+        extra_expansions=extra_expansions,
+    )  # fmt: skip
+    stats = dataclasses.replace(again.stats, time_s=result.stats.time_s + again.stats.time_s)
+    return dataclasses.replace(again, stats=stats)
+
+
+def _declared_pruned(result: PlanResult, mutexes: Mutexes) -> bool:
+    """Whether ``result`` is an UNSOLVABLE verdict that declared mutexes took part in."""
+    if result.status is not Status.UNSOLVABLE or not mutexes.declared:
+        return False
+    goal = result.goal.ids
+    if mutexes.proved_only().conflict(goal) is not None:
+        return False  # a proved clash in the goal is a proof
+    return result.stats.pruned_mutex > 0 or mutexes.conflict(goal) is not None
+
+
+def _remaining(limits: Limits, used: SearchStats) -> Limits | Status:
+    """What ``limits`` leave after a search that used ``used``, or the limit that is exhausted."""
+    time_s, max_expansions = limits.time_s, limits.max_expansions
+    if time_s is not None:
+        time_s -= used.time_s
+        if time_s <= 0:
+            return Status.TIMEOUT
+    if max_expansions is not None:
+        max_expansions -= used.explored
+        if max_expansions < 1:
+            return Status.NODE_LIMIT
+    return dataclasses.replace(limits, time_s=time_s, max_expansions=max_expansions)  # any deadline stays
