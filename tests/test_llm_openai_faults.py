@@ -298,7 +298,7 @@ def test_no_answer_times_out_without_retrying(fake: FakeServer) -> None:
     elapsed = time.monotonic() - started
     assert elapsed < 1.0 + 3.0
     assert f"no answer from the LLM server at {fake.base_url} within 1 s" in message
-    assert "--timeout" in message
+    assert "--llm-timeout" in message
     assert len(fake.requests) == 1
 
 

@@ -3,6 +3,7 @@ and reflective feedback, and how large the prompts are."""
 
 from __future__ import annotations
 
+import logging
 import re
 import statistics
 
@@ -24,6 +25,8 @@ from hbtp.llm.prompt import (
     retry_request,
 )
 from hbtp.llm.vocabulary import ANY, vocabulary_of
+
+log = logging.getLogger(__name__)
 
 TEST_SETS = {
     "robowaiter": "table2_robowaiter_50",
@@ -217,7 +220,7 @@ def test_avoid_list_reaches_both_shapes(robowaiter: Scenario) -> None:
 
 
 # ---------------------------------------------------------------------------------- prompt sizes
-def test_prompt_sizes(scenario: Scenario, capsys: pytest.CaptureFixture[str]) -> None:
+def test_prompt_sizes(scenario: Scenario) -> None:
     """estimate_tokens of the chat (system + user) and completion prompts over the scenario's test set."""
     pool = example_pool(scenario)
     chat_sizes, completion_sizes = [], []
@@ -228,11 +231,14 @@ def test_prompt_sizes(scenario: Scenario, capsys: pytest.CaptureFixture[str]) ->
         )
         chat_sizes.append(sum(estimate_tokens(m.content) for m in chat.messages))
         completion_sizes.append(estimate_tokens(completion.completion_prompt))
-    with capsys.disabled():
-        print(
-            f"\nprompt sizes {scenario.name}: chat mean {statistics.mean(chat_sizes):.0f} max {max(chat_sizes)}; "
-            f"completion (5 examples) mean {statistics.mean(completion_sizes):.0f} max {max(completion_sizes)}"
-        )
+    log.info(
+        "prompt sizes %s: chat mean %.0f max %d; completion (5 examples) mean %.0f max %d",
+        scenario.name,
+        statistics.mean(chat_sizes),
+        max(chat_sizes),
+        statistics.mean(completion_sizes),
+        max(completion_sizes),
+    )
     assert max(completion_sizes) < COMPLETION_BOUND
     assert max(chat_sizes) < CHAT_BOUND
     assert min(completion_sizes) > 30  # five demonstrations are really there

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,6 +13,7 @@ from typing import Any, TypeVar, cast
 import click
 
 from hbtp.bench.runner import EXECUTORS, Execution, ExecutorName
+from hbtp.deadline import Deadline
 from hbtp.domains import Scenario, load_pddl_scenario, load_scenario, scenario_names
 from hbtp.domains.scenarios import read_mutex_file
 from hbtp.errors import InputError
@@ -35,9 +37,10 @@ class ScenarioSource:
     def given(self) -> bool:
         return bool(self.scenario or self.pddl)
 
-    def load(self, default: str | None = None) -> Scenario:
+    def load(self, default: str | None = None, *, deadline: Deadline | None = None) -> Scenario:
         """The scenario; ``default`` (a shipped scenario's name, e.g. recorded in a tree file) when
-        neither --scenario nor --pddl was given."""
+        neither --scenario nor --pddl was given. ``deadline`` bounds reading, grounding and mutex
+        inference of --pddl files (:class:`~hbtp.deadline.TimeLimitReached`, exit code 1)."""
         scenario, pddl = self.scenario, self.pddl
         if scenario and pddl:
             raise InputError("give either --scenario or --pddl, not both")
@@ -56,6 +59,7 @@ class ScenarioSource:
                 objects=self.object_categories,
                 mutex_groups=declared["groups"],
                 mutex_nogoods=declared["nogoods"],
+                deadline=deadline,
             )
         raise InputError(f"choose a scenario with --scenario ({', '.join(scenario_names())}) or --pddl DOMAIN PROBLEM")
 
@@ -160,10 +164,22 @@ def backend_options(function: F) -> F:
     ``--model-path``, ``--threads``, ``--prompt-cache``, ``--noise-drop``, ``--noise-insert``), passed on as
     ``backend: BackendOptions``."""
 
+    def positive_seconds(context: click.Context, parameter: click.Parameter, value: float) -> float:
+        if not (value > 0 and math.isfinite(value)):  # also nan and inf
+            raise click.BadParameter(f"must be a positive number of seconds, not {value}")
+        return value
+
     @click.option("--model", help="LLM model name (openai; default $HBTP_LLM_MODEL).")
     @click.option("--base-url", help="OpenAI-compatible server URL (default $OPENAI_BASE_URL).")
     @click.option("--api-key", help="API key (default $OPENAI_API_KEY; never stored).")
-    @click.option("--llm-timeout", type=float, default=60.0, show_default=True, help="Seconds per LLM request.")
+    @click.option(
+        "--llm-timeout",
+        type=float,
+        default=60.0,
+        show_default=True,
+        callback=positive_seconds,
+        help="Seconds for one LLM call (its retries and reading the reply included).",
+    )
     @click.option("--model-path", help="GGUF file for --llm local (default: the packaged Gemma-3 270M).")
     @click.option("--threads", type=int, help="CPU threads for --llm local.")
     @click.option(

@@ -36,13 +36,21 @@ class Request:
     temperature: float = 0.0
     seed: int = 0
     stop: tuple[str, ...] = ()
+    #: Seconds this one call may take at most (the loop's remaining budget), or ``None``; a backend
+    #: that can stops by then (the OpenAI backend uses the smaller of this and its own timeout).
+    time_limit: float | None = None
 
     def key(self) -> str:
-        """A stable hash of what the model is asked (for record/replay)."""
+        """A stable hash of what the model is asked (for record/replay).
+
+        Only the question itself counts: the conversation, the completion prompt, the temperature
+        and the seed. ``max_tokens`` and ``stop`` are left out: they are defaults of the prompt
+        style (chat or completion) rather than part of the question, so a run recorded with one
+        backend replays with another; ``round``, ``attempt`` and ``time_limit`` are bookkeeping.
+        """
         payload = {
             "messages": [[m.role, m.content] for m in self.messages],
             "completion_prompt": self.completion_prompt,
-            "max_tokens": self.max_tokens,
             "temperature": self.temperature,
             "seed": self.seed,
         }

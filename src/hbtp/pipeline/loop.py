@@ -8,14 +8,23 @@ answers again (``feedback_rounds`` times); the predicates and objects of every r
 the space only grows. After the last round the planner searches the full action space with the
 LLM-free landmark heuristic, so every solvable task is solved. The LLM can make planning fast or
 slow, never wrong: every tree comes from the sound search and is executed before it is returned.
+
+A round whose LLM call failed without any answer plans nothing (its space is the previous round's,
+already searched) and ends the asking: the loop goes to the fallback at once.
+
+``LoopOptions.time_limit`` bounds the whole run (``hbtp plan -t``): every LLM call gets the time
+that is left (``Request.time_limit``), every round's search at most that, no round starts once it is
+gone, and the fallback gets what remains (at most ``fallback_time_limit``); when nothing remains the
+result is a timeout.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from hbtp.datasets.records import Record
@@ -25,11 +34,12 @@ from hbtp.llm.backend import Backend, Request
 from hbtp.llm.grammar import GrammarCheck, check_reply
 from hbtp.llm.parse import parse_reply
 from hbtp.llm.prompt import PromptOptions, build_request, feedback_request, retry_request
+from hbtp.llm.redact import redact
 from hbtp.logic.task import Goal
 from hbtp.planning.heuristics import HeuristicName
 from hbtp.planning.hints import Hints, pruned_action_space, resolve_hints
 from hbtp.planning.limits import Limits
-from hbtp.planning.planners import plan, planner_config
+from hbtp.planning.planners import confirmed_search, plan, planner_config
 from hbtp.planning.result import PlanResult, Status
 from hbtp.planning.search import search
 
@@ -52,6 +62,8 @@ class LoopOptions:
     heuristic: HeuristicName = "none"  # inside the pruned rounds (the paper's planners by default)
     fallback_heuristic: HeuristicName = "lm"
     prompt: PromptOptions = field(default_factory=PromptOptions)
+    #: Seconds for the whole run (LLM calls, rounds and fallback); ``None``: no overall bound.
+    time_limit: float | None = None
 
 
 @dataclass(frozen=True)
@@ -75,7 +87,7 @@ class RoundRecord:
         return {
             "round": self.round,
             "prompts": list(self.prompts),
-            "replies": list(self.replies),
+            "replies": [redact(reply) for reply in self.replies],
             "hints": {
                 "path": list(self.hints.path),
                 "predicates": list(self.hints.predicates),
@@ -88,7 +100,7 @@ class RoundRecord:
             "explored": self.explored,
             "llm_seconds": round(self.llm_seconds, 6),
             "planning_seconds": round(self.planning_seconds, 6),
-            "error": self.error,
+            "error": redact(self.error),
         }
 
 
@@ -169,19 +181,26 @@ class _Round:
         self.names = [a.signature.underscored for a in scenario.task.actions]
         self.blacklist: list[str] = []
 
-    def ask(self, request: Request) -> tuple[Request, GrammarCheck | None, list[Request], list[str], float, str]:
+    def ask(
+        self, request: Request, deadline: float = math.inf
+    ) -> tuple[Request, GrammarCheck | None, list[Request], list[str], float, str]:
         prompts: list[Request] = []
         replies: list[str] = []
         seconds = 0.0
         check: GrammarCheck | None = None
         error = ""
         for attempt in range(self.options.grammar_retries + 1):
+            left = deadline - time.perf_counter()
+            if left <= 0:
+                if not replies:
+                    error = "the time limit ran out before the LLM was asked"
+                break
             prompts.append(request)
             try:
-                reply = self.backend.complete(request)
+                reply = self.backend.complete(request if math.isinf(left) else replace(request, time_limit=left))
             except BackendError as failure:
-                error = str(failure)
-                log.warning("round %d: the LLM failed: %s", request.round, failure)
+                error = redact(str(failure))
+                log.warning("round %d: the LLM failed: %s", request.round, error)
                 if replies:  # continue from the last request that was answered
                     request = prompts[-2]
                 break
@@ -206,6 +225,8 @@ def run_hbtp(
     options: LoopOptions = LoopOptions(),
 ) -> LoopResult:
     """Plan ``goal`` with LLM hints, reflective feedback and the full-space fallback."""
+    started_run = time.perf_counter()
+    deadline = math.inf if options.time_limit is None else started_run + options.time_limit
     task = scenario.task
     resolved = task.resolve_goal(goal) if isinstance(goal, str) else goal
     goal_text = str(resolved)
@@ -219,6 +240,9 @@ def run_hbtp(
     last: PlanResult | None = None
     hints = Hints()
     for round_number in range(options.feedback_rounds + 1):
+        if time.perf_counter() >= deadline:
+            log.info("the time limit ran out before round %d", round_number)
+            break
         if round_number > 0 and last is not None:
             all_predicates = set(task.action_predicates)
             request = feedback_request(
@@ -234,8 +258,28 @@ def run_hbtp(
                 asker.blacklist,
                 options.prompt.retrieval,
             )
-        request, check, prompts, replies, llm_seconds, error = asker.ask(request)
+        request, check, prompts, replies, llm_seconds, error = asker.ask(request, deadline)
         llm_total += llm_seconds
+        if error and not replies:
+            # Nothing new was said: the space is the last round's (already searched), so the
+            # asking ends here and the loop goes to the fallback.
+            rounds.append(
+                RoundRecord(
+                    round_number,
+                    tuple(_prompt_record(p) for p in prompts),
+                    (),
+                    Hints(),
+                    (),
+                    tuple(asker.blacklist),
+                    0,
+                    "skipped",
+                    0,
+                    llm_seconds,
+                    0.0,
+                    error,
+                )
+            )
+            break
         if check is not None:
             hints = check.hints
         resolved_hints = resolve_hints(task, hints)
@@ -244,15 +288,21 @@ def run_hbtp(
         objects |= set(resolved_hints.objects) | {o for a in path_actions for o in a.objects}
         accumulated = resolve_hints(task, Hints(hints.path, tuple(sorted(predicates)), tuple(sorted(objects))))
         space = task.restricted(pruned_action_space(task, accumulated))
+        left = deadline - time.perf_counter()
+        if left <= 0:
+            log.info("the time limit ran out before round %d could plan", round_number)
+            break
         started = time.perf_counter()
-        result = search(
+        # Declared mutexes speed the rounds up; without a fallback, a failed round's verdict is the
+        # answer, so it must not rest on them (confirmed_search re-decides it without them).
+        result = (search if options.fallback else confirmed_search)(
             task,
             resolved,
             space,
             config,
             mutexes=scenario.mutexes,
             hints=accumulated,
-            limits=Limits(time_s=options.round_time_limit),
+            limits=Limits(time_s=min(options.round_time_limit, left)),
         )
         planning_total += time.perf_counter() - started
         rounds.append(
@@ -274,10 +324,17 @@ def run_hbtp(
         last = result
         if result.solved:
             return LoopResult(round_label(round_number), result, tuple(rounds), llm_total, planning_total)
-        if error and not replies:
-            break  # the backend is down: feedback cannot help
-    if not options.fallback or last is None:
-        final = last or PlanResult(Status.UNSOLVABLE, options.planner, resolved, message="no round ran")
+    left = deadline - time.perf_counter()
+    if not options.fallback:
+        message = f"no round planned: {rounds[-1].error}" if rounds and rounds[-1].error else "no round ran"
+        final = last or PlanResult(Status.UNSOLVABLE, options.planner, resolved, message=message)
+        return LoopResult("failed", final, tuple(rounds), llm_total, planning_total)
+    if left <= 0:
+        message = "the time limit ran out before the fallback"
+        if last is not None:
+            final = replace(last, status=Status.TIMEOUT, message=message)
+        else:
+            final = PlanResult(Status.TIMEOUT, options.planner, resolved, message=message)
         return LoopResult("failed", final, tuple(rounds), llm_total, planning_total)
     started = time.perf_counter()
     # The fallback prunes with proved mutexes only: declared ones could cut off the only solution.
@@ -289,7 +346,7 @@ def run_hbtp(
         space="full",
         mutexes=scenario.mutexes.proved_only(),
         heuristic=options.fallback_heuristic,
-        limits=Limits(time_s=options.fallback_time_limit),
+        limits=Limits(time_s=min(options.fallback_time_limit, left)),
     )
     planning_total += time.perf_counter() - started
     return LoopResult("fallback" if final.solved else "failed", final, tuple(rounds), llm_total, planning_total)

@@ -14,23 +14,36 @@ connections, are retried up to ``max_retries`` times with exponential backoff (`
 doubled each time, at most 8 s, with jitter; a ``Retry-After`` of up to 60 s is honoured). A refused
 connection, a timeout and every other HTTP error fail at once with a one-line :class:`BackendError`
 that says what happened and how to fix it.
+
+Bounds: ``timeout`` (or the request's ``time_limit``, when smaller) bounds the *whole* call: the
+model list, every attempt, the backoff between them and the reading of the reply. Each attempt runs
+in a helper thread that is abandoned (and its connections closed) at the deadline, so a server that
+trickles its reply a few bytes at a time cannot hold the call past it. A reply body larger than
+:data:`MAX_REPLY_BYTES` is refused as soon as it grows past that size.
+
+The API key never appears in a message or a log line: it is remembered by :mod:`hbtp.llm.redact`,
+and every server text quoted is redacted (a 401 reply often echoes the key).
 """
 
 from __future__ import annotations
 
 import email.utils
 import ipaddress
+import json
 import logging
+import math
 import os
 import random
+import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from types import ModuleType
 from typing import Any, TypeVar
 from urllib.parse import urlsplit
 
 from hbtp.errors import BackendError
 from hbtp.llm.backend import Reply, Request
+from hbtp.llm.redact import redact, remember_secret
 
 log = logging.getLogger(__name__)
 
@@ -42,13 +55,26 @@ LOCAL_PLACEHOLDER_KEY = "not-needed"
 RETRY_STATUSES = frozenset({408, 409, 429, 500, 502, 503, 504})
 MAX_RETRY_DELAY = 8.0
 MAX_RETRY_AFTER = 60.0
+#: The largest reply body accepted (a completion of a few hundred tokens is a few kilobytes).
+MAX_REPLY_BYTES = 2_000_000
 
 _T = TypeVar("_T")
 
 
+class _Deadline(Exception):
+    """The call's time is up (raised while reading a reply)."""
+
+
+class _TooLarge(Exception):
+    """The reply body grew past :data:`MAX_REPLY_BYTES`."""
+
+
 def is_local_url(url: str) -> bool:
     """Whether ``url`` names a server on this machine (localhost, a loopback address)."""
-    host = (urlsplit(url).hostname or "").lower()
+    try:
+        host = (urlsplit(url).hostname or "").lower()
+    except ValueError:  # a malformed address such as http://[::1
+        return False
     if host == "localhost" or host.endswith(".localhost"):
         return True
     try:
@@ -68,7 +94,7 @@ def _import_openai() -> ModuleType:
 
 
 def _one_line(text: object, limit: int = 200) -> str:
-    line = " ".join(str(text).split())
+    line = redact(" ".join(str(text).split()))
     return line if len(line) <= limit else line[: limit - 1] + "…"
 
 
@@ -116,11 +142,37 @@ def _retry_after(headers: Any) -> float | None:
         return None
 
 
+def _read_capped(chunks: Iterable[bytes], deadline: float, limit: int = MAX_REPLY_BYTES) -> bytes:
+    """The body from ``chunks``; :class:`_Deadline` past ``deadline``, :class:`_TooLarge` past ``limit``."""
+    parts: list[bytes] = []
+    size = 0
+    for chunk in chunks:
+        size += len(chunk)
+        if size > limit:
+            raise _TooLarge
+        parts.append(chunk)
+        if time.perf_counter() > deadline:
+            raise _Deadline
+    return b"".join(parts)
+
+
+def _parse_url(url: str) -> tuple[str, str | None]:
+    """``url``'s scheme and host; :class:`BackendError` for a malformed address."""
+    try:
+        parts = urlsplit(url)
+        return parts.scheme, parts.hostname
+    except ValueError as error:
+        raise BackendError(
+            f"the base URL {url!r} is malformed ({error}); give one like http://127.0.0.1:8080/v1"
+        ) from None
+
+
 class OpenAIBackend:
     """An OpenAI-compatible chat (or completions) endpoint, with retries and clear errors.
 
-    ``timeout`` bounds each attempt (connect, send, and each wait for data); ``max_retries`` is the
-    number of retries after the first attempt; ``retry_delay`` the first backoff in seconds.
+    ``timeout`` bounds the whole of one :meth:`complete` (retries, backoff and reading included);
+    ``max_retries`` is the number of retries after the first attempt; ``retry_delay`` the first
+    backoff in seconds.
     """
 
     def __init__(
@@ -134,16 +186,20 @@ class OpenAIBackend:
         *,
         retry_delay: float = 0.5,
     ) -> None:
-        if timeout <= 0:
-            raise BackendError(f"the request timeout must be positive, not {timeout}")
+        if not (timeout > 0 and math.isfinite(timeout)):
+            raise BackendError(f"the LLM timeout (--llm-timeout) must be a positive number of seconds, not {timeout}")
         if max_retries < 0:
             raise BackendError(f"max_retries must be 0 or more, not {max_retries}")
         self._openai = _import_openai()
         self.base_url = (base_url or os.environ.get("OPENAI_BASE_URL") or OPENAI_BASE_URL).rstrip("/")
-        if urlsplit(self.base_url).scheme not in ("http", "https"):
-            raise BackendError(f"the base URL must start with http:// or https://, not {self.base_url!r}")
-        self.official = urlsplit(self.base_url).hostname == urlsplit(OPENAI_BASE_URL).hostname
+        scheme, host = _parse_url(self.base_url)
+        if scheme not in ("http", "https") or not host:
+            raise BackendError(
+                f"the base URL must start with http:// or https:// and name a host, not {self.base_url!r}"
+            )
+        self.official = host == urlsplit(OPENAI_BASE_URL).hostname
         key = api_key or os.environ.get("OPENAI_API_KEY")
+        remember_secret(key)
         if not key:
             if self.official:
                 raise BackendError(
@@ -162,19 +218,25 @@ class OpenAIBackend:
         self.use_completions = use_completions
         self.name = f"openai:{self.model or 'auto'}@{self.base_url}"
         self._max_tokens_field = "max_tokens"
-        # The client's own retries are off: they would repeat timeouts too (see the module's doc).
-        self._client = self._openai.OpenAI(api_key=key, base_url=self.base_url, timeout=timeout, max_retries=0)
+        self._key = key
+        self._client: Any = self._new_client()
 
     # ------------------------------------------------------------------ public API
     def complete(self, request: Request) -> Reply:
-        """Ask the server; the reply's ``seconds`` include retries, its ``meta`` the model and retry count."""
-        model = self._resolve_model()
+        """Ask the server; the reply's ``seconds`` include retries, its ``meta`` the model and retry count.
+
+        The whole call ends within ``timeout`` (or ``request.time_limit`` when smaller)."""
         started = time.perf_counter()
+        limit = self.timeout
+        if request.time_limit is not None and request.time_limit < self.timeout:
+            limit = max(0.0, request.time_limit)
+        deadline = started + limit
+        model = self._resolve_model(deadline, limit)
         if self.use_completions:
             if not request.completion_prompt.strip():
                 raise BackendError("use_completions needs request.completion_prompt, but it is empty")
             arguments: dict[str, Any] = {"model": model, "prompt": request.completion_prompt}
-            create: Callable[..., Any] = self._client.completions.create
+            endpoint = "completions"
         else:
             messages = [{"role": m.role, "content": m.content} for m in request.messages]
             if not messages:
@@ -182,26 +244,30 @@ class OpenAIBackend:
                     raise BackendError("the request has neither messages nor a completion prompt")
                 messages = [{"role": "user", "content": request.completion_prompt}]
             arguments = {"model": model, "messages": messages}
-            create = self._client.chat.completions.create
+            endpoint = "chat"
         arguments["temperature"] = request.temperature
         arguments["seed"] = request.seed
         if request.stop:
             arguments["stop"] = list(request.stop)
 
-        def send() -> Any:
-            return create(**arguments, **{self._max_tokens_field: request.max_tokens})
+        def send(client: Any, seconds: float) -> Any:
+            resource = client.completions if self.use_completions else client.chat.completions
+            with resource.with_streaming_response.create(
+                **arguments, **{self._max_tokens_field: request.max_tokens}, timeout=seconds
+            ) as response:
+                return self._body(response, deadline)
 
-        response, retries = self._call(send, what=f"model {model!r}")
+        response, retries = self._call(send, what=f"model {model!r}", deadline=deadline, limit=limit)
         text, finish = self._extract(response)
-        usage = getattr(response, "usage", None)
+        usage = _dict(response.get("usage"))
         return Reply(
             text=text,
             seconds=time.perf_counter() - started,
-            prompt_tokens=_int_or_none(getattr(usage, "prompt_tokens", None)),
-            completion_tokens=_int_or_none(getattr(usage, "completion_tokens", None)),
+            prompt_tokens=_int_or_none(usage.get("prompt_tokens")),
+            completion_tokens=_int_or_none(usage.get("completion_tokens")),
             meta={
-                "model": getattr(response, "model", None) or model,
-                "endpoint": "completions" if self.use_completions else "chat",
+                "model": response.get("model") or model,
+                "endpoint": endpoint,
                 "finish_reason": finish,
                 "retries": retries,
             },
@@ -212,36 +278,98 @@ class OpenAIBackend:
         self._client.close()
 
     # ------------------------------------------------------------------ internals
-    def _resolve_model(self) -> str:
+    def _new_client(self) -> Any:
+        # The client's own retries are off: they would repeat timeouts too (see the module's doc).
+        return self._openai.OpenAI(api_key=self._key, base_url=self.base_url, timeout=self.timeout, max_retries=0)
+
+    def _body(self, response: Any, deadline: float) -> Any:
+        """The JSON of a streamed 2xx response, read within ``deadline`` and :data:`MAX_REPLY_BYTES`."""
+        declared = response.headers.get("content-length")
+        if declared and declared.isdigit() and int(declared) > MAX_REPLY_BYTES:
+            raise _TooLarge
+        body = _read_capped(response.iter_bytes(), deadline)
+        try:
+            return json.loads(body)
+        except ValueError as error:  # also a body that is not UTF-8
+            raise BackendError(
+                f"the LLM server at {self.base_url} sent a response that is not a valid completion "
+                f"(not JSON: {_one_line(error, 80)}); is the base URL an OpenAI-compatible /v1 endpoint?"
+            ) from None
+
+    def _resolve_model(self, deadline: float, limit: float) -> str:
         """The configured model, else the first one the server lists (asked once)."""
         if self.model is None:
             openai = self._openai
 
-            def list_models() -> Any:
+            def list_models(client: Any, seconds: float) -> Any:
                 try:
-                    return self._client.models.list()
+                    with client.models.with_streaming_response.list(timeout=seconds) as response:
+                        return self._body(response, deadline)
                 except openai.NotFoundError:  # a server without /models: it serves whatever it has
                     return None
 
-            listing, _ = self._call(list_models, what="the model list")
-            data = getattr(listing, "data", None) or []
-            first = getattr(data[0], "id", None) if data else None
+            listing, _ = self._call(list_models, what="the model list", deadline=deadline, limit=limit)
+            data = _dict(listing).get("data")
+            first = _dict(data[0]).get("id") if isinstance(data, list) and data else None
             self.model = str(first) if first else "default"
             log.info("using model %r, the first one %s lists", self.model, self.base_url)
             self.name = f"openai:{self.model}@{self.base_url}"
         return self.model
 
-    def _call(self, send: Callable[[], _T], *, what: str) -> tuple[_T, int]:
-        """``send()`` with retries; every failure becomes a :class:`BackendError`."""
+    def _attempt(self, send: Callable[[Any, float], _T], deadline: float, limit: float) -> _T:
+        """``send(client, seconds left)`` in a helper thread, abandoned at ``deadline``."""
+        remaining = deadline - time.perf_counter()
+        if remaining <= 0:
+            raise self._timeout(limit)
+        client = self._client
+        outcome: list[Any] = []
+        failure: list[BaseException] = []
+
+        def work() -> None:
+            try:
+                outcome.append(send(client, remaining))
+            except BaseException as error:  # handed to the caller's thread
+                failure.append(error)
+
+        worker = threading.Thread(target=work, name="hbtp-openai-request", daemon=True)
+        worker.start()
+        worker.join(remaining)
+        if worker.is_alive():  # still connecting or reading: give up and cut its connections
+            self._client = self._new_client()
+            try:
+                client.close()
+            except Exception as error:  # closing under a running request may complain; it is gone anyway
+                log.debug("closing an abandoned connection: %s", redact(str(error)))
+            raise self._timeout(limit)
+        if failure:
+            raise failure[0]
+        result: _T = outcome[0]
+        return result
+
+    def _timeout(self, limit: float) -> BackendError:
+        if limit < self.timeout:  # the caller's budget (hbtp plan -t) ran out first
+            return BackendError(
+                f"no answer from the LLM server at {self.base_url} in the {limit:.1f} s left of the time limit; "
+                "raise the time limit (-t) or use a faster server"
+            )
+        return BackendError(
+            f"no answer from the LLM server at {self.base_url} within {limit:g} s; "
+            "the server may be overloaded or the model too slow: raise --llm-timeout or use a smaller model"
+        )
+
+    def _call(self, send: Callable[[Any, float], _T], *, what: str, deadline: float, limit: float) -> tuple[_T, int]:
+        """``send`` with retries, all within ``deadline``; every failure becomes a :class:`BackendError`."""
         openai = self._openai
         retries = 0
         while True:
             try:
-                return send(), retries
-            except openai.APITimeoutError:
+                return self._attempt(send, deadline, limit), retries
+            except (openai.APITimeoutError, _Deadline):
+                raise self._timeout(limit) from None
+            except _TooLarge:
                 raise BackendError(
-                    f"no answer from the LLM server at {self.base_url} within {self.timeout:g} s; "
-                    "the server may be overloaded or the model too slow: raise --timeout or use a smaller model"
+                    f"the LLM server at {self.base_url} sent a reply larger than {MAX_REPLY_BYTES // 1_000_000} MB; "
+                    "is the base URL an OpenAI-compatible /v1 endpoint?"
                 ) from None
             except openai.APIConnectionError as error:
                 if _is_refused(error):
@@ -249,12 +377,15 @@ class OpenAIBackend:
                         f"cannot reach the LLM server at {self.base_url}: connection refused; "
                         "is it running? set --base-url (or OPENAI_BASE_URL)"
                     ) from None
+                failed = BackendError(
+                    f"cannot reach the LLM server at {self.base_url}: {_root_reason(error)}"
+                    f"{self._after(retries)}; check the address and the server, or set --base-url"
+                )
                 if retries >= self.max_retries:
-                    raise BackendError(
-                        f"cannot reach the LLM server at {self.base_url}: {_root_reason(error)}"
-                        f"{self._after(retries)}; check the address and the server, or set --base-url"
-                    ) from None
+                    raise failed from None
                 delay = self._backoff(retries, None)
+                if delay >= deadline - time.perf_counter():
+                    raise failed from None  # no time left to retry
                 log.warning(
                     "connection to %s failed (%s); retry %d in %.1f s",
                     self.base_url,
@@ -266,6 +397,8 @@ class OpenAIBackend:
                 status = error.status_code
                 if status in RETRY_STATUSES and retries < self.max_retries:
                     delay = self._backoff(retries, getattr(error.response, "headers", None))
+                    if delay >= deadline - time.perf_counter():
+                        raise self._status_error(error, what, retries) from None  # no time left to retry
                     log.warning("%s answered HTTP %d; retry %d in %.1f s", self.base_url, status, retries + 1, delay)
                 elif status == 400 and self._max_tokens_field == "max_tokens" and "max_completion_tokens" in str(error):
                     self._max_tokens_field = "max_completion_tokens"  # newer OpenAI models renamed it
@@ -305,7 +438,7 @@ class OpenAIBackend:
         if status == 429:
             return BackendError(
                 f"the server at {where} is rate-limiting requests (HTTP 429: {detail}){self._after(retries)}; "
-                "wait and try again, or raise max_retries"
+                "wait a while and try again"
             )
         if status >= 500:
             return BackendError(
@@ -317,7 +450,7 @@ class OpenAIBackend:
     def _extract(self, response: Any) -> tuple[str, str | None]:
         """The first choice's text and finish reason; :class:`BackendError` for anything else."""
         where = self.base_url
-        choices = getattr(response, "choices", None)
+        choices = response.get("choices") if isinstance(response, dict) else None
         if not isinstance(choices, list):
             raise BackendError(
                 f"the LLM server at {where} sent a response that is not a completion "
@@ -325,14 +458,11 @@ class OpenAIBackend:
             )
         if not choices:
             raise BackendError(f"the LLM server at {where} sent a completion with no choices")
-        choice = choices[0]
-        if self.use_completions:
-            text = getattr(choice, "text", None)
-        else:
-            text = getattr(getattr(choice, "message", None), "content", None)
+        choice = _dict(choices[0])
+        text = choice.get("text") if self.use_completions else _dict(choice.get("message")).get("content")
         if not isinstance(text, str):
             raise BackendError(f"the LLM server at {where} sent a choice without text")
-        finish = getattr(choice, "finish_reason", None)
+        finish = choice.get("finish_reason")
         if not text:
             log.warning("the LLM server at %s sent an empty text (finish reason %s)", where, finish)
         return text, finish if isinstance(finish, str) else None
@@ -351,4 +481,8 @@ def _status_detail(error: Any) -> str:
 
 
 def _int_or_none(value: Any) -> int | None:
-    return value if isinstance(value, int) else None
+    return value if isinstance(value, int) and not isinstance(value, bool) else None
+
+
+def _dict(value: Any) -> dict[str, Any]:
+    return value if isinstance(value, dict) else {}

@@ -19,7 +19,17 @@ def _read(path: Path) -> dict[str, str]:
     table: dict[str, str] = {}
     if not path.exists():
         return table
-    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+    if path.is_dir():
+        raise BackendError(f"replay file {path} is a directory; give a JSONL file written by --record")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as error:
+        raise BackendError(
+            f"replay file {path} is not UTF-8 text (byte {error.start}); give a JSONL file written by --record"
+        ) from None
+    except OSError as error:
+        raise BackendError(f"cannot read the replay file {path}: {error.strerror or error}") from None
+    for number, line in enumerate(text.splitlines(), 1):
         if not line.strip():
             continue
         try:
@@ -61,19 +71,26 @@ class RecordingBackend:
         self.name = f"record:{inner.name}"
         self.path = Path(path)
         self.table = _read(self.path)
+        self._append("")  # fail now, not after the first (maybe slow) answer, when the file cannot be written
 
     def complete(self, request: Request) -> Reply:
         key = request.key()
         if key in self.table:
             return Reply(self.table[key], 0.0, meta={"replayed": True})
         reply = self.inner.complete(request)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        with self.path.open("a", encoding="utf-8") as handle:
-            handle.write(
-                json.dumps({"key": key, "goal": request.goal, "round": request.round, "reply": reply.text}) + "\n"
-            )
+        self._append(json.dumps({"key": key, "goal": request.goal, "round": request.round, "reply": reply.text}) + "\n")
         self.table[key] = reply.text
         return reply
+
+    def _append(self, line: str) -> None:
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            with self.path.open("a", encoding="utf-8") as handle:
+                handle.write(line)
+        except OSError as error:
+            raise BackendError(
+                f"cannot write the record file {self.path}: {error.strerror or error}; give a writable path to --record"
+            ) from None
 
     def close(self) -> None:
         self.inner.close()

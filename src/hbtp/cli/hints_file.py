@@ -1,0 +1,96 @@
+"""``hbtp plan --hints SOURCE``: hints from ``none``, ``oracle`` or a file.
+
+A file is a dataset (text or JSONL records) or one raw LLM reply. The hints must be for the goal
+asked: a file of records gives the record whose goal is that goal, and a file without one is
+rejected. A file the strict dataset reader refuses (one malformed record among many) is still read
+block by block, so the right record is found, with a warning naming the problem; its goal-less
+blocks are never taken for another goal's hints. A raw reply without a ``Goals:`` line is taken as
+the hints for the goal asked.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+from pathlib import Path
+
+from hbtp.datasets import read_dataset_file
+from hbtp.datasets.records import Record
+from hbtp.domains import Scenario
+from hbtp.errors import DatasetError, InputError
+from hbtp.llm.parse import parse_reply
+from hbtp.logic.task import Goal
+from hbtp.planning import Hints, Limits, hints_from_record
+from hbtp.planning.oracle import oracle_hints
+
+log = logging.getLogger(__name__)
+
+_GOALS_LINE = re.compile(r"^\s*Goals?\s*:(.*)$", re.IGNORECASE | re.MULTILINE)
+_NO_HINTS = (
+    "no hints found (expected 'Optimal Actions:' / 'Vital Action Predicates:' / "
+    "'Vital Objects:' lines, or 'Heuristic Path:' / 'Relevant ...')"
+)
+
+
+def load_hints(source: str, loaded: Scenario, goal: Goal, limits: Limits) -> Hints | None:
+    """``none``, ``oracle`` (an optimal plan) or a file: the dataset record for ``goal`` or a raw LLM reply.
+
+    Raises :class:`InputError` for a file that cannot be read, is not UTF-8, has no record for
+    ``goal`` or has no hints at all.
+    """
+    if source == "none":
+        return None
+    if source == "oracle":
+        return oracle_hints(loaded.task, goal, loaded.mutexes, limits)
+    path = Path(source)
+    try:
+        data = path.read_bytes()
+    except OSError as error:
+        raise InputError(f"{source}: cannot read hints file: {error.strerror or error}") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise InputError(f"{source}: the hints file is not UTF-8 text (byte {error.start})") from None
+    try:
+        records: list[Record] | None = read_dataset_file(path)
+        problem: DatasetError | None = None
+    except DatasetError as error:
+        records, problem = None, error
+    if records:
+        matching = [r for r in records if _goal_ids(loaded, r.goal) == goal.ids]
+        if not matching:
+            raise InputError(f"{source}: {_none_has(len(records), goal)}")
+        return hints_from_record(matching[0])
+    blocks = [block for block in re.split(r"\n[ \t\r]*\n", text.removeprefix("\ufeff")) if block.strip()]
+    with_goal = [(block, _GOALS_LINE.search(block)) for block in blocks]
+    goal_blocks = [(block, match.group(1)) for block, match in with_goal if match is not None]
+    if not goal_blocks:  # a raw reply: hints for whatever goal is asked
+        parsed = parse_reply(text)
+        if not parsed.found:
+            raise InputError(f"{source}: {_NO_HINTS}")
+        return parsed.hints
+    for block, goal_text in goal_blocks:
+        if _goal_ids(loaded, goal_text) == goal.ids:
+            parsed = parse_reply(block)
+            if not parsed.found:
+                raise InputError(f"{source}: the record for the goal {goal} has {_NO_HINTS}")
+            if problem is not None:
+                log.warning(
+                    "%s is not a valid dataset file (%s); using its record for the goal %s", source, problem, goal
+                )
+            return parsed.hints
+    reason = f" (and it is not a valid dataset file: {problem})" if problem is not None else ""
+    raise InputError(f"{source}: {_none_has(len(goal_blocks), goal)}{reason}")
+
+
+def _none_has(count: int, goal: Goal) -> str:
+    if count == 1:
+        return f"its only record is not for the goal {goal}"
+    return f"none of its {count} records has the goal {goal}"
+
+
+def _goal_ids(loaded: Scenario, goal: str) -> frozenset[int] | None:
+    try:
+        return loaded.task.resolve_goal(goal.strip()).ids
+    except InputError:
+        return None
