@@ -73,7 +73,7 @@ def test_export_by_extension(tmp_path: Path, tree_json: Path, name: str, capsys:
         "svg": b"<?xml",
         "png": b"\x89PNG",
         "mermaid": b"flowchart TD\n",
-        "text": b"# scenario: robothow-small\n# goal: IsIn_apple_fridge & IsClose_fridge\n? Fallback",
+        "text": b"# scenario: robothow-small\n# goal: IsIn(apple,fridge) & IsClose(fridge)\n? Fallback",
     }
     assert data.startswith(starts[fmt])
     assert [p.name for p in tmp_path.iterdir()] == [name]

@@ -5,7 +5,9 @@ Exit codes: 0 solved, 1 not solved (or invalid dataset records), 2 bad input, 3 
 
 from __future__ import annotations
 
+import io
 import json
+from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
@@ -16,8 +18,11 @@ from hbtp.bt.jsonio import tree_from_json, tree_to_json
 from hbtp.cli import EXIT_INPUT, EXIT_NOT_SOLVED, EXIT_OK, main
 from hbtp.datasets import load_dataset, write_text
 from hbtp.domains import Scenario, load_scenario, scenario_names
+from hbtp.errors import InputError
 from hbtp.llm.parse import parse_reply
 from hbtp.planning import Hints, hints_from_record, plan, pruned_action_space, resolve_hints
+from hbtp.planning.oracle import oracle_hints
+from helpers import run_tree
 
 MILK = "IsIn_milk_fridge & IsClose_fridge"
 PAPER_REPLY = """Here is my reasoning for the task.
@@ -305,7 +310,7 @@ def test_out_writes_a_json_tree_that_reads_back_to_the_same_tree(
     root, meta = tree_from_json(text, robothow.task, str(out))
     assert meta["format"] == "hbtp-tree"
     assert meta["scenario"] == "robothow"
-    assert meta["goal"] == MILK
+    assert meta["goal"] == [str(atom) for atom in robothow.task.resolve_goal(MILK).atoms]  # literals, P(a,b) form
     result = plan(
         robothow.task, MILK, "hbtp-o", hints=parse_reply(PAPER_REPLY).hints, space="pruned", mutexes=robothow.mutexes
     )
@@ -421,3 +426,117 @@ def test_export_pddl_with_an_unknown_goal_object_writes_nothing(
     assert "unknown object 'frigde'" in one_line_error(err)
     assert stdout == ""
     assert not out.exists() or not any(out.iterdir())
+
+
+# ------------------------------------------------------------------ -g @FILE (issue 14, G)
+def test_goal_from_a_file_and_from_standard_input(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path, robowaiter: Scenario
+) -> None:
+    expected = plan(robowaiter.task, "On_Coffee_Table1", "obtea", mutexes=robowaiter.mutexes, heuristic="lm")
+    goal_file = tmp_path / "goal.txt"
+    goal_file.write_text("\ufeffOn_Coffee_Table1\n", encoding="utf-8")  # a byte order mark is dropped
+    code, record = run_json(capsys, "plan", "-s", "robowaiter", "-p", "obtea", "-g", f"@{goal_file}")
+    assert code == EXIT_OK
+    assert (record["goal"], record["cost"]) == ("On_Coffee_Table1", expected.cost)
+    monkeypatch.setattr("sys.stdin", io.TextIOWrapper(io.BytesIO(b"On_Coffee_Table1 &\n  On_Coffee_Table1\n")))
+    code, record = run_json(capsys, "plan", "-s", "robowaiter", "-p", "obtea", "-g", "@-")
+    assert code == EXIT_OK
+    assert (record["goal"], record["cost"]) == ("On_Coffee_Table1", expected.cost)
+
+
+@pytest.mark.parametrize(
+    ("content", "name", "needle"),
+    [
+        (None, "missing.txt", "missing.txt: cannot read the goal: No such file or directory"),
+        (None, "", "cannot read the goal: Is a directory"),
+        (b"On_Coffee_\xff_Table1", "latin.txt", "latin.txt: the goal is not UTF-8 text (byte 10)"),
+        (b"", "empty.txt", "empty goal"),
+    ],
+)
+def test_unreadable_goal_file_is_a_one_line_input_error(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, content: bytes | None, name: str, needle: str
+) -> None:
+    path = tmp_path / name
+    if content is not None:
+        path.write_bytes(content)
+    code, out, err = run(capsys, "plan", "-s", "robowaiter", "-g", f"@{path}")
+    assert code == EXIT_INPUT
+    assert out == ""
+    assert needle in one_line_error(err)
+
+
+def test_goal_file_name_must_not_be_empty(capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = run(capsys, "plan", "-s", "robowaiter", "-g", "@")
+    assert code == EXIT_INPUT
+    assert "the file name is missing" in one_line_error(err)
+
+
+def test_a_10000_literal_goal_file_is_rejected_with_one_short_line(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    goal_file = tmp_path / "goal.txt"
+    goal_file.write_text(" &\n".join(f"IsIn(x{i},y{i})" for i in range(10_000)) + " &\n", encoding="utf-8")
+    code, _, err = run(capsys, "plan", "-s", "robothow", "-g", f"@{goal_file}")
+    assert code == EXIT_INPUT
+    line = one_line_error(err)
+    assert "an empty conjunct (number 10001 of 10001)" in line
+    assert len(line) < 250
+
+
+# ----------------------------------------------------------------------- --alpha (issue 14, E)
+@pytest.mark.parametrize(
+    ("alpha", "needle"),
+    [
+        ("inf", "alpha must be a finite number, not inf"),
+        ("-inf", "alpha must be a finite number, not -inf"),
+        ("nan", "alpha must be a finite number, not nan"),
+        ("1e-320", "alpha must be between 1 and 1,000,000,000, not 1e-320"),
+        ("0", "alpha must be between 1 and 1,000,000,000, not 0.0"),
+        ("0.5", "alpha must be between 1 and 1,000,000,000, not 0.5"),
+        ("1e300", "alpha must be between 1 and 1,000,000,000, not 1e+300"),
+    ],
+)
+@pytest.mark.parametrize("llm", [False, True])
+def test_invalid_alpha_is_a_one_line_input_error(
+    capsys: pytest.CaptureFixture[str], alpha: str, needle: str, llm: bool
+) -> None:
+    argv = ["plan", "-s", "robowaiter", "-p", "hbtp-o", "-g", "On_Coffee_Table1", "--alpha", alpha]
+    code, out, err = run(capsys, *argv, *(["--llm", "oracle"] if llm else ["--hints", "oracle"]))
+    assert code == EXIT_INPUT
+    assert out == ""
+    assert one_line_error(err) == f"hbtp: error: {needle}"
+
+
+@pytest.mark.parametrize("alpha", ["1", "2.5", "1e9"])
+def test_valid_alpha_plans_and_the_tree_reaches_the_goal(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, robowaiter: Scenario, alpha: str
+) -> None:
+    out = tmp_path / "tree.json"
+    code, _, err = run(
+        capsys, "plan", "-s", "robowaiter", "-p", "hbtp-o", "-g", "On_Coffee_Table1", "--hints", "oracle",
+        "--alpha", alpha, "-o", str(out),
+    )  # fmt: skip
+    assert code == EXIT_OK, err
+    root, _ = tree_from_json(out.read_text(encoding="utf-8"), robowaiter.task, str(out))
+    run_result = run_tree(root, robowaiter.task, robowaiter.task.initial_state, max_ticks=100)
+    assert run_result.reached
+    assert robowaiter.task.resolve_goal("On_Coffee_Table1").ids <= run_result.state
+
+
+@pytest.mark.parametrize(
+    "alpha", [float("inf"), float("nan"), 1e-320, 0, 0.999, -5, 10**10, 1e300, Fraction(1, 2), True, "10"]
+)
+def test_plan_api_rejects_an_invalid_alpha(robowaiter: Scenario, alpha: Any) -> None:
+    with pytest.raises(InputError, match=r"^alpha must be"):
+        plan(robowaiter.task, "On_Coffee_Table1", "hbtp-o", alpha=alpha)
+
+
+@pytest.mark.parametrize("alpha", [1, 1.0, 2.5, Fraction(7, 2), 10_000, 10_000.0, 10**9])
+def test_plan_api_accepts_a_valid_alpha(robowaiter: Scenario, alpha: Any) -> None:
+    task = robowaiter.task
+    hints = oracle_hints(task, task.resolve_goal("On_Coffee_Table1"), robowaiter.mutexes)
+    result = plan(task, "On_Coffee_Table1", "hbtp-o", hints=hints, mutexes=robowaiter.mutexes, alpha=alpha)
+    optimum = plan(task, "On_Coffee_Table1", "obtea", mutexes=robowaiter.mutexes)
+    assert result.cost == optimum.cost  # a correct heuristic path: HBTP-O is optimal for any alpha
+    run_result = run_tree(tree_of(result), task, task.initial_state, max_ticks=100)
+    assert run_result.reached

@@ -44,7 +44,7 @@ def test_run_reaches_the_goal(tmp_path: Path, planned: Node, robothow_small: Sce
     assert data["ticks"] == 8
     assert data["cost"] == 59
     assert data["executed"][-1] == "Close(fridge)"
-    assert data["goal"] == GOAL
+    assert data["goal"] == "IsIn(apple,fridge) & IsClose(fridge)"
 
 
 def test_run_with_perturbations_and_a_trace(tmp_path: Path, planned: Node, robothow_small: Scenario) -> None:

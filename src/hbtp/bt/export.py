@@ -13,13 +13,14 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from hbtp.bt.btcpp import tree_from_btcpp, tree_to_btcpp
+from hbtp.bt.btcpp import tree_to_btcpp
 from hbtp.bt.graphviz import render_bytes, tree_to_dot
-from hbtp.bt.jsonio import tree_from_json, tree_to_json
+from hbtp.bt.jsonio import tree_to_json
 from hbtp.bt.mermaid import tree_to_mermaid
 from hbtp.bt.nodes import Node
 from hbtp.bt.pytrees_export import write_pytrees_module
 from hbtp.bt.text import render_text
+from hbtp.bt.treefile import read_tree_file
 from hbtp.errors import InputError
 from hbtp.files import write_atomically
 from hbtp.logic.task import GroundTask
@@ -112,25 +113,9 @@ def format_from_extension(path: str | os.PathLike[str]) -> str:
 
 
 def read_tree(path: str | os.PathLike[str], task: GroundTask) -> Node:
-    """Read a tree file: hbtp JSON (``.json``) or BehaviorTree.CPP v4 XML (``.xml``), resolved against ``task``.
-
-    Other extensions are recognised by their first character (``{`` or ``<``).
-    """
-    source = str(path)
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise InputError(f"{source}: not a text file (expected hbtp JSON or BehaviorTree.CPP XML)") from None
-    except OSError as error:
-        raise InputError(f"{source}: cannot read the tree: {error.strerror}") from None
-    suffix = Path(path).suffix.lower()
-    start = text.lstrip()[:1]
-    if suffix == ".json" or (suffix != ".xml" and start == "{"):
-        root, _ = tree_from_json(text, task, source)
-        return root
-    if suffix == ".xml" or start == "<":
-        return tree_from_btcpp(text, task, source)
-    raise InputError(f"{source}: not a tree file (expected hbtp JSON or BehaviorTree.CPP v4 XML)")
+    """Read a tree file, hbtp JSON or BehaviorTree.CPP v4 XML (told apart by content, see
+    :func:`hbtp.bt.treefile.read_tree_file`), resolved against ``task``."""
+    return read_tree_file(path).tree(task)
 
 
 def write_export(

@@ -1,22 +1,51 @@
 """Our JSON tree format (round trip): readable names, resolved against a scenario when read.
 
-``{"format": "hbtp-tree", "version": 1, "scenario": "robothow", "goal": "...",
+``{"format": "hbtp-tree", "version": 1, "scenario": "robothow", "goal": ["IsIn(milk,fridge)"],
+   "complete": true,
    "root": {"type": "Fallback", "children": [{"type": "Condition", "literals": ["IsOpen(fridge)"]},
    {"type": "Sequence", "children": [... {"type": "Action", "action": "Open(fridge)"}]}]}}``
+
+``goal`` is the list of goal literals in the ``Pred(a,b)`` form (a string ``"IsIn_milk_fridge &
+..."`` in files written before, still read). ``complete`` is false for the partial tree of an
+unsolved search (``hbtp plan --partial``). A tree planned from the user's PDDL also records
+``"pddl": {"domain": ..., "problem": ...}`` (paths relative to the tree file's folder, and the
+``objects``, ``keep_fluent`` and ``mutex`` options when given), so that ``hbtp run``, ``verify``
+and ``export`` can reload the task. Trees nested deeper than
+:data:`~hbtp.bt.nodes.MAX_TREE_DEPTH` levels are rejected.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Iterable, Mapping
 from typing import Any
 
-from hbtp.bt.nodes import Action, Condition, Fallback, Node, Sequence
+from hbtp.bt.nodes import MAX_TREE_DEPTH, Action, Condition, Fallback, Node, Sequence
 from hbtp.errors import InputError
-from hbtp.logic.atoms import parse_atom
-from hbtp.logic.task import GroundTask
+from hbtp.logic.atoms import Atom, parse_atom, parse_conjunction
+from hbtp.logic.task import Goal, GroundTask
 
 FORMAT = "hbtp-tree"
 VERSION = 1
+
+GoalLike = Goal | str | Iterable[Atom | str]
+
+
+def goal_literals(goal: GoalLike) -> list[str]:
+    """The goal as a list of literals in the ``Pred(a,b)`` form (empty for ``""``).
+
+    A string is read as a conjunction (``A(x) & B(y)``; give the ``Pred(a,b)`` form, the
+    underscored one is ambiguous when names contain ``_``)."""
+    if isinstance(goal, Goal):
+        return [str(atom) for atom in goal.atoms]
+    if isinstance(goal, str):
+        return [str(atom) for atom in parse_conjunction(goal)] if goal.strip() else []
+    return [str(parse_atom(item) if isinstance(item, str) else item) for item in goal]
+
+
+def goal_text(goal: GoalLike) -> str:
+    """The goal as one conjunction in the ``Pred(a,b)`` form: ``IsIn(milk,fridge) & IsClose(fridge)``."""
+    return " & ".join(goal_literals(goal))
 
 
 def node_to_dict(node: Node, task: GroundTask) -> dict[str, Any]:
@@ -28,19 +57,36 @@ def node_to_dict(node: Node, task: GroundTask) -> dict[str, Any]:
     return {"type": kind, "children": [node_to_dict(child, task) for child in node.children]}
 
 
-def tree_to_json(node: Node, task: GroundTask, *, scenario: str = "", goal: str = "") -> str:
+def tree_to_json(
+    node: Node,
+    task: GroundTask,
+    *,
+    scenario: str = "",
+    goal: GoalLike = "",
+    complete: bool = True,
+    pddl: Mapping[str, Any] | None = None,
+) -> str:
     """The tree as a JSON document (deterministic: same tree, same bytes)."""
-    document = {
+    document: dict[str, Any] = {
         "format": FORMAT,
         "version": VERSION,
         "scenario": scenario or task.name,
-        "goal": goal,
-        "root": node_to_dict(node, task),
+        "goal": goal_literals(goal),
+        "complete": complete,
     }
+    if pddl:
+        document["pddl"] = dict(pddl)
+    document["root"] = node_to_dict(node, task)
     return json.dumps(document, indent=1, ensure_ascii=False) + "\n"
 
 
-def node_from_dict(data: Any, task: GroundTask, where: str = "root") -> Node:
+def _too_deep() -> InputError:
+    return InputError(f"the tree is nested more than {MAX_TREE_DEPTH} levels deep (the most hbtp reads)")
+
+
+def node_from_dict(data: Any, task: GroundTask, where: str = "root", depth: int = 1) -> Node:
+    if depth > MAX_TREE_DEPTH:
+        raise _too_deep()
     if not isinstance(data, dict):
         raise InputError(f"{where}: expected an object, found {type(data).__name__}")
     kind = data.get("type")
@@ -58,24 +104,37 @@ def node_from_dict(data: Any, task: GroundTask, where: str = "root") -> Node:
         children = data.get("children")
         if not isinstance(children, list) or not children:
             raise InputError(f"{where}: a {kind} needs a non-empty list of children")
-        nodes = tuple(node_from_dict(c, task, f"{where}.{kind}[{i}]") for i, c in enumerate(children))
+        nodes = tuple(node_from_dict(c, task, f"{where}.{kind}[{i}]", depth + 1) for i, c in enumerate(children))
         return Sequence(nodes) if kind == "Sequence" else Fallback(nodes)
     raise InputError(f"{where}: unknown node type {kind!r} (expected Condition, Action, Sequence, Fallback)")
 
 
-def tree_from_json(text: str, task: GroundTask, source: str = "<tree>") -> tuple[Node, dict[str, Any]]:
-    """Read a tree written by :func:`tree_to_json`; returns the root and the document's metadata."""
+def json_document(text: str, source: str = "<tree>") -> dict[str, Any]:
+    """The checked document of an hbtp JSON tree (its ``root`` not yet resolved against a task)."""
     try:
         document = json.loads(text)
     except json.JSONDecodeError as error:
         raise InputError(f"{source}: not valid JSON ({error.msg} at line {error.lineno})") from None
+    except RecursionError:
+        raise InputError(f"{source}: {_too_deep()}") from None
     if not isinstance(document, dict) or document.get("format") != FORMAT:
         raise InputError(f'{source}: not an hbtp tree (expected "format": "{FORMAT}")')
     if document.get("version") != VERSION:
         raise InputError(f"{source}: unsupported tree version {document.get('version')!r}")
-    try:
-        root = node_from_dict(document.get("root"), task)
-    except InputError as error:
-        raise InputError(f"{source}: {error}") from None
+    return document
+
+
+def tree_from_json(text: str, task: GroundTask, source: str = "<tree>") -> tuple[Node, dict[str, Any]]:
+    """Read a tree written by :func:`tree_to_json`; returns the root and the document's metadata."""
+    document = json_document(text, source)
+    root = root_from_document(document, task, source)
     meta = {k: v for k, v in document.items() if k != "root"}
     return root, meta
+
+
+def root_from_document(document: Mapping[str, Any], task: GroundTask, source: str = "<tree>") -> Node:
+    """The tree of a document read by :func:`json_document`, resolved against ``task``."""
+    try:
+        return node_from_dict(document.get("root"), task)
+    except InputError as error:
+        raise InputError(f"{source}: {error}") from None

@@ -14,6 +14,16 @@ from dataclasses import dataclass
 
 from hbtp.logic.task import GroundTask, State
 
+#: The deepest tree hbtp reads from a file (a single leaf has depth 1). Ticking, verifying and
+#: exporting recurse once or twice per level, so this keeps them well inside Python's recursion
+#: limit (and the py_trees export inside the Python parser's 200 nested brackets); planned trees are
+#: far shallower (at most 7 levels over every task of the shipped datasets, compacted or not).
+MAX_TREE_DEPTH = 90
+
+#: The most nodes hbtp reads from a BehaviorTree.CPP file once its ``<SubTree>`` references are
+#: expanded (identical subtrees are shared in memory, but ticking and exporting visit every copy).
+MAX_TREE_NODES = 1_000_000
+
 
 class NodeStatus(enum.Enum):
     SUCCESS = "success"

@@ -29,6 +29,13 @@ one tick per branch. A tree planned by backward search has this property by cons
 expanded condition was regressed from its parent, expanded earlier); the check makes it a
 certificate that does not trust the planner, and it covers trees read from files.
 
+**From the initial state** (``from_initial_state=True``, what ``hbtp verify`` asks): the tree must
+also reach the goal from s0. With a first-match form that is proved when goal reaching is and some
+branch condition holds in s0; otherwise the tree is ticked from s0 without disturbance (ticking is
+a pure function of the state, so that run is the tree's only behaviour from s0) until it succeeds
+with the goal, fails, or comes back to a state it has seen. A partial tree (written after an
+unsolved search) covers no branch of s0 and fails this check with an ``initial-state`` problem.
+
 Problems name the node (``root.children[3].children[1]``) and the literals by name.
 """
 
@@ -39,7 +46,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from hbtp.bt.nodes import Action, Condition, Fallback, Node
+from hbtp.bt.nodes import Action, Condition, Fallback, Node, NodeStatus, tick
 from hbtp.bt.nodes import Sequence as SequenceNode
 from hbtp.logic.task import GroundTask
 
@@ -133,6 +140,7 @@ class Problem:
 
     path: str
     kind: str  # unknown-symbol | precondition | goal-check | success-without-goal | never-succeeds | no-progress
+    #            | initial-state
     message: str
     missing: tuple[str, ...] = ()
 
@@ -219,8 +227,12 @@ class _Collector:
         return ", ".join(self.task.names(ids)) or "(nothing)"
 
 
-def verify(tree: Node, task: GroundTask, goal_ids: Iterable[int]) -> Verification:
-    """Check ``tree`` against ``task`` and the goal (atom ids); see the module docstring."""
+def verify(tree: Node, task: GroundTask, goal_ids: Iterable[int], *, from_initial_state: bool = False) -> Verification:
+    """Check ``tree`` against ``task`` and the goal (atom ids); see the module docstring.
+
+    ``from_initial_state``: also report an ``initial-state`` problem unless the tree reaches the
+    goal from s0 (without it, a tree that is correct wherever it acts passes even if s0 is outside
+    it, as the truncated trees of a search stopped by a limit are)."""
     goal = frozenset(goal_ids)
     found = _Collector(task)
     if not _check_symbols(tree, task, (), found):
@@ -241,9 +253,57 @@ def verify(tree: Node, task: GroundTask, goal_ids: Iterable[int]) -> Verificatio
         proved = _check_progress(branches, task, found) and proved
         s0 = task.initial_state
         covers = any(branch.condition(task) <= s0 for branch in branches)
+    if from_initial_state:
+        if branches is not None and not covers:
+            found.problem(
+                (),
+                "initial-state",
+                "no branch's condition holds in the initial state, so the tree fails there "
+                "(a partial tree, written after an unsolved search?)",
+            )
+        elif branches is None:
+            outcome = _run_from_initial_state(tree, task, goal)
+            if outcome:
+                found.problem((), "initial-state", outcome)
+            else:
+                notes.append("an undisturbed run from the initial state reaches the goal")
     return _result(
         found, proved=proved, covers=covers, branches=None if branches is None else len(branches), notes=tuple(notes)
     )
+
+
+_MAX_RUN = 100_000  # actions of the run from s0 for a tree without first-match form
+
+
+def _run_from_initial_state(tree: Node, task: GroundTask, goal: frozenset[int]) -> str:
+    """Tick ``tree`` from s0 until it stops or repeats a state: ``""`` when it ends in SUCCESS with
+    the goal, else what goes wrong."""
+    state = task.initial_state
+    seen = {state}
+    actions = 0
+    while True:
+        status, running = tick(tree, state, task)
+        if status is NodeStatus.SUCCESS:
+            if goal <= state:
+                return ""
+            missing = ", ".join(task.names(goal - state))
+            return (
+                f"from the initial state the tree succeeds after {actions} action(s) without the goal: "
+                f"missing {missing}"
+            )
+        if status is NodeStatus.FAILURE:
+            return f"from the initial state the tree fails after {actions} action(s) without reaching the goal"
+        assert running is not None
+        state = task.actions[running].progress(state)
+        actions += 1
+        if state in seen:
+            return (
+                f"from the initial state the tree comes back to a state it was in after {actions} action(s): "
+                "it never reaches the goal"
+            )
+        seen.add(state)
+        if actions >= _MAX_RUN:
+            return f"from the initial state the tree does not reach the goal within {_MAX_RUN:,} actions"
 
 
 def _result(

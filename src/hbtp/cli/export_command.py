@@ -6,16 +6,19 @@ can reuse :func:`export_options` and :func:`write_export`.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
 
 import click
 
-from hbtp.bt.export import FORMATS, export_tree, format_from_extension, read_tree, write_export
+from hbtp.bt.export import FORMATS, export_tree, format_from_extension, write_export
+from hbtp.bt.jsonio import goal_text, tree_to_json
+from hbtp.bt.treefile import pddl_record, read_tree_file
 from hbtp.cli.options import ScenarioSource, scenario_options
+from hbtp.cli.tree_input import pddl_files, scenario_for
 from hbtp.errors import InputError
+from hbtp.files import write_atomically
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -39,17 +42,6 @@ def export_options(function: F) -> F:
     return function
 
 
-def _document_metadata(path: str) -> dict[str, Any]:
-    """The scenario and goal recorded in an hbtp JSON tree (empty for anything else)."""
-    if Path(path).suffix.lower() == ".xml":
-        return {}
-    try:
-        document = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
-        return {}  # read_tree reports the problem
-    return document if isinstance(document, dict) else {}
-
-
 @click.command("export", epilog=f"Formats: {FORMAT_HELP}.")
 @click.argument("tree_file", metavar="TREE", type=click.Path(dir_okay=False))
 @scenario_options
@@ -67,24 +59,35 @@ def export_command(
 ) -> int:
     """Convert TREE (hbtp JSON or BehaviorTree.CPP v4 XML) to another format.
 
-    The tree's names are checked against the scenario (--scenario, --pddl, or the scenario recorded
-    in a JSON tree). Nothing is written when the input is bad.
+    The tree's names are checked against the scenario (--scenario, --pddl, or the scenario or PDDL
+    files recorded in the tree). Nothing is written when the input is bad.
     """
     chosen = fmt or (format_from_extension(out_file) if out_file else None)
     if chosen is None:
         raise InputError("give --format or an --out file whose extension names the format")
     if out_file is None and FORMATS[chosen].binary:
         raise InputError(f"{chosen} is a binary format: give --out FILE")
-    metadata = _document_metadata(tree_file)
-    recorded = metadata.get("scenario")
-    loaded = source.load(default=recorded if isinstance(recorded, str) else None)
-    tree = read_tree(tree_file, loaded.task)
-    goal = metadata.get("goal") if isinstance(metadata.get("goal"), str) else ""
+    file = read_tree_file(tree_file)
+    loaded = scenario_for(file, source)
+    tree = file.tree(loaded.task)
+    goal = file.resolve_goal(loaded.task)
+    goal_line = goal_text(goal) if goal is not None else ""
+    if chosen == "json":  # keeps what only JSON records: the PDDL files and completeness
+        pddl = pddl_files(source) if source.given else file.pddl
+        data: str | bytes = tree_to_json(
+            tree,
+            loaded.task,
+            scenario=loaded.name,
+            goal=goal_line,
+            complete=file.complete,
+            pddl=pddl_record(pddl, out_file or "."),
+        )
+    else:
+        data = export_tree(tree, loaded.task, chosen, scenario=loaded.name, goal=goal_line)
     if out_file is None:
-        data = export_tree(tree, loaded.task, chosen, scenario=loaded.name, goal=str(goal))
         click.echo(data if isinstance(data, str) else data.decode("utf-8"), nl=False)
     else:
-        write_export(tree, loaded.task, out_file, chosen, scenario=loaded.name, goal=str(goal))
+        write_atomically(Path(out_file), data)
         click.echo(f"wrote {out_file} ({chosen})")
     return 0
 

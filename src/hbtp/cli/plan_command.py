@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
+import logging
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import cast
 
@@ -10,73 +11,38 @@ import click
 
 from hbtp.bt import render_text, size, tree_of
 from hbtp.bt.compact import compact
-from hbtp.bt.jsonio import tree_to_json
-from hbtp.cli.export_command import export_options, write_export
+from hbtp.bt.export import export_tree, format_from_extension
+from hbtp.bt.jsonio import goal_text, tree_to_json
+from hbtp.bt.treefile import pddl_record
+from hbtp.cli.export_command import export_options
+from hbtp.cli.goal_input import GOAL_HELP, read_goal
+from hbtp.cli.hints_file import load_hints
 from hbtp.cli.options import (
     ScenarioSource,
     backend_options,
     echo_json,
     scenario_options,
-    write_files_atomically,
 )
-from hbtp.datasets import read_dataset_file
-from hbtp.datasets.records import Record
+from hbtp.cli.tree_input import pddl_files
 from hbtp.domains import Scenario
-from hbtp.errors import DatasetError, InputError
+from hbtp.errors import InputError
+from hbtp.files import write_all_atomically
 from hbtp.llm.backends.registry import BackendOptions, make_backend
-from hbtp.llm.parse import parse_reply
 from hbtp.llm.pool import example_pool
 from hbtp.llm.prompt import RETRIEVALS, PromptOptions
 from hbtp.logic.task import Goal
 from hbtp.pipeline import LoopOptions, LoopResult, run_hbtp
-from hbtp.planning import PLANNER_DESCRIPTIONS, PLANNERS, Hints, Limits, hints_from_record, plan
+from hbtp.planning import PLANNER_DESCRIPTIONS, PLANNERS, Limits, plan
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
-from hbtp.planning.oracle import oracle_hints
+from hbtp.planning.planners import check_alpha
 from hbtp.planning.result import PlanResult
 
-
-def load_hints(source: str, loaded: Scenario, goal: Goal, limits: Limits) -> Hints | None:
-    """``none``, ``oracle`` (an optimal plan) or a file: a dataset record or a raw LLM reply."""
-    if source == "none":
-        return None
-    if source == "oracle":
-        return oracle_hints(loaded.task, goal, loaded.mutexes, limits)
-    path = Path(source)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as error:
-        raise InputError(f"{source}: cannot read hints file: {error.strerror}") from None
-    try:
-        records = read_dataset_file(path)
-    except DatasetError:
-        records = []
-    if records:
-        wanted = goal.ids
-        matching = [r for r in records if _goal_ids(loaded, r) == wanted]
-        if matching:
-            return hints_from_record(matching[0])
-        if len(records) == 1:
-            return hints_from_record(records[0])
-        raise InputError(f"{source}: none of its {len(records)} records has the goal {goal}")
-    parsed = parse_reply(text)
-    if not parsed.found:
-        raise InputError(
-            f"{source}: no hints found (expected 'Optimal Actions:' / 'Vital Action Predicates:' / "
-            "'Vital Objects:' lines, or 'Heuristic Path:' / 'Relevant ...')"
-        )
-    return parsed.hints
-
-
-def _goal_ids(loaded: Scenario, record: Record) -> frozenset[int] | None:
-    try:
-        return loaded.task.resolve_goal(record.goal).ids
-    except InputError:
-        return None
+log = logging.getLogger(__name__)
 
 
 @click.command("plan")
 @scenario_options
-@click.option("-g", "--goal", required=True, help='Goal, e.g. "IsIn_milk_fridge & IsClose_fridge".')
+@click.option("-g", "--goal", required=True, help=GOAL_HELP)
 @click.option(
     "-p",
     "--planner",
@@ -96,7 +62,7 @@ def _goal_ids(loaded: Scenario, record: Record) -> frozenset[int] | None:
     show_default=True,
     help="LLM-free admissible heuristic: lm (landmarks, max with hmax), hmax, or none (the paper's planners).",
 )
-@click.option("--alpha", type=float, default=10_000, show_default=True, help="HBTP-O discount divisor.")
+@click.option("--alpha", type=float, default=10_000, show_default=True, help="HBTP-O discount divisor, from 1 to 10^9.")
 @click.option("-t", "--time-limit", type=float, default=60.0, show_default=True, help="Seconds.")
 @click.option("--max-expansions", type=int, help="Stop after this many expanded conditions.")
 @click.option(
@@ -108,16 +74,36 @@ def _goal_ids(loaded: Scenario, record: Record) -> frozenset[int] | None:
     help="Explore N more conditions after the solution: a larger tree that recovers from more disturbances.",
 )
 @click.option("--memory-mb", type=float, help="Stop when the process grows beyond this size.")
-@click.option("--tree", "tree_kind", type=click.Choice(["full", "path"]), default="full", show_default=True)
+@click.option(
+    "--tree",
+    "tree_kind",
+    type=click.Choice(["full", "path"]),
+    default="full",
+    show_default=True,
+    help="full: every explored condition (acts from more states); path: only the solution path.",
+)
 @click.option("--compact", is_flag=True, help="Merge conditions shared by adjacent branches (same behaviour).")
 @click.option("-o", "--out", "out_file", type=click.Path(dir_okay=False), help="Write the tree as JSON.")
+@click.option("--partial", is_flag=True, help="When not solved, still write the partial tree (-o, --export).")
 @export_options
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON instead of the tree.")
 @click.option("--max-branches", type=int, default=40, show_default=True, help="Branches shown in the terminal.")
 @click.option("--llm", "llm_spec", help="Ask an LLM for hints: local, openai, oracle, noisy-oracle or replay:FILE.")
 @backend_options
-@click.option("--feedback-rounds", type=click.IntRange(0, 10), default=3, show_default=True)
-@click.option("--grammar-retries", type=click.IntRange(0, 10), default=2, show_default=True)
+@click.option(
+    "--feedback-rounds",
+    type=click.IntRange(0, 10),
+    default=3,
+    show_default=True,
+    help="With --llm: rounds that ask again, with the failed search as feedback, before the fallback.",
+)
+@click.option(
+    "--grammar-retries",
+    type=click.IntRange(0, 10),
+    default=2,
+    show_default=True,
+    help="With --llm: times a reply that breaks the answer grammar is sent back for repair.",
+)
 @click.option("--examples", type=click.IntRange(0, 50), default=5, show_default=True, help="Few-shot demonstrations.")
 @click.option("--examples-from", type=click.Path(dir_okay=False), help="Your own example pool (dataset file).")
 @click.option(
@@ -129,7 +115,9 @@ def _goal_ids(loaded: Scenario, record: Record) -> frozenset[int] | None:
 )
 @click.option("--round-time-limit", type=float, default=5.0, show_default=True, help="Planning seconds per round.")
 @click.option("--no-fallback", is_flag=True, help="Do not plan in the full space after the last round.")
-@click.option("--seed", type=int, default=0, show_default=True)
+@click.option(
+    "--seed", type=int, default=0, show_default=True, help="Seed of the LLM backend (sampling, noisy-oracle)."
+)
 @click.option("--record", type=click.Path(dir_okay=False), help="Record every LLM exchange to this JSONL file.")
 def plan_command(
     source: ScenarioSource,
@@ -146,6 +134,7 @@ def plan_command(
     tree_kind: str,
     compact: bool,
     out_file: str | None,
+    partial: bool,
     as_json: bool,
     max_branches: int,
     export_file: str | None,
@@ -163,10 +152,13 @@ def plan_command(
     record: str | None,
 ) -> int:
     """Plan a behavior tree that reaches GOAL; exit code 0 when solved, 1 when not."""
-    limits = Limits(time_s=time_limit, max_expansions=max_expansions, memory_mb=memory_mb)
-    loaded = source.load()
+    # One deadline for the whole command: loading, grounding, heuristic set-up and every search.
+    limits = Limits(time_s=time_limit, max_expansions=max_expansions, memory_mb=memory_mb).starting_now()
+    loaded = source.load(deadline=limits.deadline)
     task = loaded.task
-    resolved = task.resolve_goal(goal)
+    resolved = task.resolve_goal(read_goal(goal))
+    check_alpha(alpha)
+    outputs = Outputs(tree_kind, compact, out_file, export_file, export_format, partial, source, as_json, max_branches)
     loop = None
     if llm_spec is not None:
         if hints_source != "none":
@@ -185,16 +177,13 @@ def plan_command(
             prompt=PromptOptions(
                 examples=examples, style="completion" if llm_spec == "local" else "chat", retrieval=retrieval
             ),
+            time_limit=time_limit,  # -t bounds the whole loop: LLM calls, rounds and the fallback
         )
         try:
             loop = run_hbtp(loaded, resolved, llm, example_pool(loaded, examples_from), options)
         finally:
             llm.close()
-        return _report(
-            loop.result, loaded, resolved, (tree_kind, compact), (out_file, export_file, export_format), as_json,
-            max_branches,
-            "llm", loop,
-        )  # fmt: skip
+        return _report(loop.result, loaded, resolved, outputs, "llm", loop)
     hints = load_hints(hints_source, loaded, resolved, limits)
     chosen_space = space or ("pruned" if hints is not None else "full")
     result = plan(
@@ -210,35 +199,63 @@ def plan_command(
         extra_expansions=extra_expansions,
     )
     hints_label = hints_source if hints_source in ("none", "oracle") else "file"
-    return _report(
-        result, loaded, resolved, (tree_kind, compact), (out_file, export_file, export_format), as_json,
-        max_branches,
-        hints_label, None,
-    )  # fmt: skip
+    return _report(result, loaded, resolved, outputs, hints_label, None)
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """What ``hbtp plan`` shows and writes: the tree's shape, the files, the terminal or JSON output."""
+
+    tree_kind: str
+    compact: bool
+    out_file: str | None
+    export_file: str | None
+    export_format: str | None
+    partial: bool  # write the tree of an unsolved run too
+    source: ScenarioSource  # recorded in the tree file so that run/verify can reload the scenario
+    as_json: bool
+    max_branches: int
 
 
 def _report(
     result: PlanResult,
     loaded: Scenario,
     resolved: Goal,
-    tree_shape: tuple[str, bool],
-    outputs: tuple[str | None, str | None, str | None],
-    as_json: bool,
-    max_branches: int,
+    outputs: Outputs,
     hints_label: str,
     loop: LoopResult | None,
 ) -> int:
     task = loaded.task
-    out_file, export_file, export_format = outputs
-    tree_kind, compacted = tree_shape
+    out_file, export_file, export_format = outputs.out_file, outputs.export_file, outputs.export_format
+    tree_kind = outputs.tree_kind
     tree = tree_of(result, tree_kind) if result.expansions and (result.solved or tree_kind == "full") else None
-    if tree is not None and compacted:
+    if tree is not None and outputs.compact:
         tree = compact(tree)
-    if export_file and tree is not None:  # first: a failed export must not leave the JSON written
-        write_export(tree, task, export_file, export_format, scenario=loaded.name, goal=str(resolved))
-    if out_file and tree is not None:
-        write_files_atomically({Path(out_file): tree_to_json(tree, task, scenario=loaded.name, goal=str(resolved))})
-    if as_json:
+    targets = [name for name in (out_file, export_file) if name]
+    if targets and not result.solved and (tree is None or not outputs.partial):
+        hint = " (give --partial to write the partial tree)" if tree is not None else ""
+        log.warning("not solved: nothing written to %s%s", ", ".join(targets), hint)
+    elif targets and tree is not None:
+        if not result.solved:
+            log.warning(
+                "not solved: writing the partial tree to %s; it does not reach the goal from the initial state",
+                ", ".join(targets),
+            )
+        files: dict[Path, str | bytes] = {}  # written all together or not at all
+        if export_file:
+            chosen = export_format or format_from_extension(export_file)
+            files[Path(export_file)] = export_tree(tree, task, chosen, scenario=loaded.name, goal=goal_text(resolved))
+        if out_file:
+            files[Path(out_file)] = tree_to_json(
+                tree,
+                task,
+                scenario=loaded.name,
+                goal=resolved,
+                complete=result.solved,
+                pddl=pddl_record(pddl_files(outputs.source), out_file),
+            )
+        write_all_atomically(files)
+    if outputs.as_json:
         record = result.to_dict(task)
         record["scenario"] = loaded.name
         record["hints"] = hints_label
@@ -267,5 +284,5 @@ def _report(
         if result.solved:
             click.echo("executes: " + (" -> ".join(task.actions[i].name for i in result.executed) or "(nothing)"))
         if tree is not None:
-            click.echo(render_text(tree, task, max_children=max_branches))
+            click.echo(render_text(tree, task, max_children=outputs.max_branches))
     return 0 if result.solved else 1

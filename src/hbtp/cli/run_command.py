@@ -1,78 +1,89 @@
-"""``hbtp run`` and ``hbtp verify``: simulate or statically check a tree written by ``hbtp plan -o``.
+"""``hbtp run`` and ``hbtp verify``: simulate or statically check a tree written by ``hbtp plan``.
+
+The tree file is hbtp JSON or BehaviorTree.CPP XML (see :mod:`hbtp.cli.tree_input`: the scenario and
+goal recorded in it are used unless ``--scenario``/``--pddl``/``--goal`` are given).
 
 Exit codes (also when the commands are invoked on their own, as click commands): 0 the goal was
-reached (every run, with ``--runs``) / the verifier found no problem; 1 it was not / it found one;
-2 bad input (a file that is not JSON or not a tree, an unknown node type, literal or action, a
-probability outside [0, 1]).
+reached (every run, with ``--runs``) / the verifier proved that the tree reaches the goal from the
+initial state; 1 it was not / it did not; 2 bad input (a file that is not a tree, an unknown node
+type, literal or action, a probability outside [0, 1]).
 """
 
 from __future__ import annotations
 
 import functools
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
 import click
 
 from hbtp.bt.disturb import check_probability, disturbed_runs, summarise_runs
-from hbtp.bt.jsonio import tree_from_json
-from hbtp.bt.nodes import Node
+from hbtp.bt.jsonio import goal_text
 from hbtp.bt.simulate import DEFAULT_MAX_TICKS, Run, simulate, trace_to_jsonl
 from hbtp.bt.verify import verify
+from hbtp.cli.exit_codes import CommandError, ExitCode, command_error
 from hbtp.cli.options import ScenarioSource, echo_json, scenario_options, write_files_atomically
-from hbtp.domains import Scenario
+from hbtp.cli.tree_input import load_tree_input
 from hbtp.errors import HbtpError, InputError
-from hbtp.logic.task import Goal
 
 log = logging.getLogger(__name__)
 
 F = TypeVar("F", bound=Callable[..., Any])
 
-EXIT_OK, EXIT_FAILED, EXIT_INPUT = 0, 1, 2
+EXIT_OK, EXIT_FAILED, EXIT_INPUT = ExitCode.OK, ExitCode.NOT_SOLVED, ExitCode.INPUT
+
+#: Steps of an ``executes:`` line shown before the rest is summarised.
+SHOWN_STEPS = 30
 
 
-class InputFailure(click.ClickException):
-    """Bad input, reported in one line with exit code 2."""
-
-    exit_code = EXIT_INPUT
+InputFailure = CommandError  # bad input, reported in one line with exit code 2
 
 
 def exit_codes(function: F) -> F:
-    """Turn hbtp's input errors into exit code 2 and the command's returned code into its exit
-    code, both under ``hbtp`` and when the command is invoked alone (``CliRunner``)."""
+    """Turn hbtp's errors into their exit code (:func:`hbtp.cli.exit_codes.exit_code_for`) and one
+    ``hbtp: error:`` line, and the command's returned code into its exit code, both under ``hbtp``
+    and when the command is invoked alone (``CliRunner``)."""
 
     @functools.wraps(function)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         try:
             code = function(*args, **kwargs)
-        except InputError as error:
-            raise InputFailure(str(error)) from None
         except HbtpError as error:
-            raise click.ClickException(str(error)) from None
+            raise command_error(error) from None
         raise click.exceptions.Exit(int(code))
 
     return wrapper  # type: ignore[return-value]
 
 
-def load_tree(path: str, loaded: Scenario, goal_text: str | None) -> tuple[Node, Goal | None]:
-    """The tree of a JSON file and its goal (``goal_text``, else the file's, else ``None``)."""
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except OSError as error:
-        raise InputError(f"{path}: cannot read the tree: {error.strerror}") from None
-    except UnicodeDecodeError:
-        raise InputError(f"{path}: not a text file") from None
-    tree, meta = tree_from_json(text, loaded.task, source=path)
-    stored = meta.get("scenario")
-    if isinstance(stored, str) and stored and stored != loaded.name:
-        log.warning("%s was written for scenario %r, read with %r", path, stored, loaded.name)
-    goal_source = goal_text if goal_text else meta.get("goal")
-    if goal_source is not None and not isinstance(goal_source, str):
-        raise InputError(f"{path}: the goal must be a string")
-    goal = loaded.task.resolve_goal(goal_source) if goal_source else None
-    return tree, goal
+def abbreviate_steps(names: Sequence[str], shown: int = SHOWN_STEPS) -> str:
+    """``A -> B -> B -> B`` as ``A -> B ×3``: repeated actions and repeated cycles of up to four
+    actions (``(Open(x) -> Close(x)) ×50``) are counted, and after ``shown`` steps the rest is
+    summarised (``... 12 more action(s)``)."""
+    if not names:
+        return "(nothing)"
+    steps: list[str] = []
+    position = 0
+    while position < len(names):
+        best_length, best_times = 1, 1
+        for length in range(1, 5):
+            block = names[position : position + length]
+            if len(block) < length:
+                break
+            times = 1
+            while names[position + times * length : position + (times + 1) * length] == block:
+                times += 1
+            if times > 1 and times * length > best_times * best_length:
+                best_length, best_times = length, times
+        block = names[position : position + best_length]
+        text = " -> ".join(block) if best_length == 1 else "(" + " -> ".join(block) + ")"
+        steps.append(f"{text} ×{best_times}" if best_times > 1 else text)
+        position += best_length * best_times
+    if len(steps) > shown:
+        rest = len(steps) - shown
+        steps = [*steps[:shown], f"... {rest} more step(s)"]
+    return " -> ".join(steps)
 
 
 def _describe_run(run: Run, reached: bool) -> str:
@@ -91,7 +102,7 @@ def _number(value: Any, sign: bool = False) -> str:
 @click.command("run")
 @click.argument("tree_file", type=click.Path(dir_okay=False))
 @scenario_options
-@click.option("-g", "--goal", "goal_text", help="Goal to reach (default: the goal stored in the tree file).")
+@click.option("-g", "--goal", "goal_option", help="Goal to reach (default: the goal stored in the tree file).")
 @click.option("--perturb", type=float, default=0.0, show_default=True, help="Probability of an event before each tick.")
 @click.option("--runs", type=int, default=1, show_default=True, help="Perturbed runs (with --perturb).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the perturbations.")
@@ -102,7 +113,7 @@ def _number(value: Any, sign: bool = False) -> str:
 def run_command(
     tree_file: str,
     source: ScenarioSource,
-    goal_text: str | None,
+    goal_option: str | None,
     perturb: float,
     runs: int,
     seed: int,
@@ -123,16 +134,16 @@ def run_command(
         raise click.BadParameter("must be at least 1", param_hint="--runs")
     if max_ticks < 1:
         raise click.BadParameter("must be at least 1", param_hint="--max-ticks")
-    loaded = source.load()
+    read = load_tree_input(tree_file, source, goal_option)
+    loaded, tree, goal = read.scenario, read.tree, read.goal
     task = loaded.task
-    tree, goal = load_tree(tree_file, loaded, goal_text)
     goal_ids = goal.ids if goal is not None else frozenset()
     trace = trace_file is not None
     base = simulate(tree, task, max_ticks=max_ticks, trace=trace and perturb == 0)
     header: dict[str, Any] = {
         "tree": tree_file,
         "scenario": loaded.name,
-        "goal": str(goal) if goal is not None else None,
+        "goal": goal_text(goal) if goal is not None else None,
     }
     if perturb == 0:
         reached = base.reached(goal_ids)
@@ -142,7 +153,7 @@ def run_command(
             echo_json({**header, "reached": reached, **base.to_dict(task)})
         else:
             click.echo(_describe_run(base, reached))
-            click.echo("executes: " + (" -> ".join(task.actions[i].name for i in base.executed) or "(nothing)"))
+            click.echo("executes: " + abbreviate_steps([task.actions[i].name for i in base.executed]))
         return EXIT_OK if reached else EXIT_FAILED
     results = disturbed_runs(tree, task, loaded.mutexes, perturb, runs, seed, max_ticks=max_ticks, trace=trace)
     stats = summarise_runs(base, results, goal_ids)
@@ -178,30 +189,30 @@ def run_command(
 @click.command("verify")
 @click.argument("tree_file", type=click.Path(dir_okay=False))
 @scenario_options
-@click.option("-g", "--goal", "goal_text", help="Goal (default: the goal stored in the tree file).")
+@click.option("-g", "--goal", "goal_option", help="Goal (default: the goal stored in the tree file).")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 @exit_codes
 def verify_command(
     tree_file: str,
     source: ScenarioSource,
-    goal_text: str | None,
+    goal_option: str | None,
     as_json: bool,
 ) -> int:
     """Check the tree of TREE_FILE without running it: guarded actions, goal check, progress.
 
-    Exit code 0 when no problem is found, 1 when one is (the first node at fault is named), 2 on
-    bad input.
+    Exit code 0 when the tree is proved to reach the goal from the initial state, 1 when not (the
+    first node at fault is named; a partial tree fails), 2 on bad input.
     """
-    loaded = source.load()
-    tree, goal = load_tree(tree_file, loaded, goal_text)
+    read = load_tree_input(tree_file, source, goal_option)
+    loaded, tree, goal = read.scenario, read.tree, read.goal
     if goal is None:
         raise InputError(f"{tree_file}: the tree file states no goal; give one with --goal")
-    result = verify(tree, loaded.task, goal.ids)
+    result = verify(tree, loaded.task, goal.ids, from_initial_state=True)
     if as_json:
-        echo_json({"tree": tree_file, "scenario": loaded.name, "goal": str(goal), **result.to_dict()})
+        echo_json({"tree": tree_file, "scenario": loaded.name, "goal": goal_text(goal), **result.to_dict()})
     else:
         click.echo(result.summary())
     return EXIT_OK if result.ok else EXIT_FAILED
 
 
-__all__ = ["InputFailure", "exit_codes", "load_tree", "run_command", "verify_command"]
+__all__ = ["InputFailure", "abbreviate_steps", "exit_codes", "run_command", "verify_command"]

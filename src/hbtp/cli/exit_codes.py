@@ -1,0 +1,71 @@
+"""The one table of ``hbtp``'s exit codes, and the one form of its error messages.
+
+=====  ==================================================================================
+code   meaning
+=====  ==================================================================================
+0      success: solved, goal reached, nothing wrong found
+1      not solved (unsolvable, time or node limit), goal not reached, verification failed,
+       or a dataset with invalid records
+2      bad input or usage, or an LLM backend that cannot run: one line ``hbtp: error: ...``
+3      an internal error (a bug: run with ``--debug`` for the traceback and please report it)
+130    interrupted (Ctrl-C)
+=====  ==================================================================================
+
+Every error is reported on standard error as one line that starts with :data:`ERROR_PREFIX`
+(click's usage errors keep their usage line above it).
+"""
+
+from __future__ import annotations
+
+import enum
+from typing import IO, Any
+
+import click
+
+from hbtp.errors import HbtpError, PlanningError
+
+ERROR_PREFIX = "hbtp: error: "
+
+
+class ExitCode(enum.IntEnum):
+    OK = 0
+    NOT_SOLVED = 1
+    INPUT = 2
+    INTERNAL = 3
+    INTERRUPTED = 130
+
+
+def error_line(message: str) -> str:
+    """``hbtp: error: message`` on one line (a multi-line message is joined with ``; ``)."""
+    parts = [part.strip() for part in str(message).splitlines() if part.strip()]
+    return ERROR_PREFIX + "; ".join(parts)
+
+
+def exit_code_for(error: HbtpError) -> ExitCode:
+    """The exit code of an hbtp error: 1 for a planning run that cannot start, else 2."""
+    return ExitCode.NOT_SOLVED if isinstance(error, PlanningError) else ExitCode.INPUT
+
+
+class CommandError(click.ClickException):
+    """Bad input that ends a command with exit code 2 and one ``hbtp: error: ...`` line, under
+    ``hbtp`` and when a command is invoked on its own (click's ``CliRunner``)."""
+
+    exit_code = int(ExitCode.INPUT)
+
+    def show(self, file: IO[Any] | None = None) -> None:
+        click.echo(error_line(self.format_message()), file=file, err=file is None)
+
+
+class NotSolvedError(CommandError):
+    """Like :class:`CommandError`, with exit code 1 (a planning run that cannot start)."""
+
+    exit_code = int(ExitCode.NOT_SOLVED)
+
+
+def command_error(error: HbtpError) -> CommandError:
+    """The click exception that reports ``error`` with its exit code (:func:`exit_code_for`)."""
+    kind = NotSolvedError if exit_code_for(error) is ExitCode.NOT_SOLVED else CommandError
+    return kind(str(error))
+
+
+__all__ = ["ERROR_PREFIX", "CommandError", "ExitCode", "NotSolvedError", "command_error", "error_line", "exit_code_for"]
