@@ -197,6 +197,11 @@ BROKEN = [
     ("Instruction: ", "Instructions: go", 12, "unknown key 'Instructions'"),
     ("Vital Objects: chips", "Vital Objects: chips\ncost: twelve", 17, "cost must be a non-negative integer"),
     ("Vital Objects: chips", "Vital Objects: chips\ncost: -3", 17, "cost must be a non-negative integer"),
+    ("Vital Objects: chips", "Vital Objects: chips\ncost: \u0663", 17, "in ASCII digits, got '\u0663'"),
+    ("Vital Objects: chips", "Vital Objects: chips\ncost: \uff13", 17, "in ASCII digits"),
+    ("Vital Objects: chips", "Vital Objects: chips\ncost: 1_0", 17, "in ASCII digits, got '1_0'"),
+    ("Vital Objects: chips", "Vital Objects: chips\ncost: " + "9" * 5000, 17, "cost has 5000 digits"),
+    ("Vital Objects: chips", "Vital Objects: chips\ncost: 1000000000000000000", 17, "cost has 19 digits"),
     ("Optimal Actions: Walk_chips", "Optimal Actions: Walk_chips\nGoals: IsOn_a_b", 15, "duplicate 'Goals' line"),
     ("Optimal Actions: Walk_chips", "Optimal Actions: Walk_chips\n%%% garbage", 15, "cannot read '%%% garbage'"),
     ("Goals: IsOn_chips_desk", "Goals: IsOn_chips_desk &", 13, "bad goal"),
@@ -269,6 +274,22 @@ JSONL_BROKEN = [
         '"cost": true}',
         "'cost' must be an integer",
     ),
+    (
+        '{"id": "9", "goal": "IsOn_a_b", "optimal_actions": [], "vital_predicates": [], "vital_objects": [], '
+        '"cost": ' + "9" * 5000 + "}",
+        "invalid JSON: a number with too many digits",
+    ),
+    (
+        '{"id": "9", "goal": "IsOn_a_b", "optimal_actions": [], "vital_predicates": [], "vital_objects": [], '
+        '"cost": 1000000000000000000}',
+        "'cost' must be a non-negative integer below 10**18",
+    ),
+    (
+        '{"id": "9", "goal": "IsOn_a_b", "optimal_actions": [], "vital_predicates": [], "vital_objects": [], '
+        '"cost": -3}',
+        "'cost' must be a non-negative integer",
+    ),
+    ("[" * 100_000, "invalid JSON: nested too deeply"),
     (
         '{"id": "1", "goal": "IsOn_a_b", "optimal_actions": [], "vital_predicates": [], "vital_objects": []}',
         "duplicate record id '1' (first at line 1)",
@@ -475,3 +496,49 @@ def test_not_optimal_hook(waiter: tuple[Record, ...]) -> None:
         "goal-not-reached": 1,
         "cost-mismatch": 1,
     }
+
+
+# ------------------------------------------------------------------ costs on the command line
+def test_costs_with_leading_zeros_are_read() -> None:
+    text = TWO_RECORDS.replace("cost: 12", "cost: " + "0" * 30 + "12")
+    assert read_text(text)[0].cost == 12
+
+
+@pytest.mark.parametrize(
+    ("name", "cost_line", "fragment"),
+    [
+        ("big.txt", "cost: " + "9" * 5000, "big.txt:8: record 1: cost has 5000 digits"),
+        ("arabic.txt", "cost: \u0663", "arabic.txt:8: record 1: cost must be a non-negative integer in ASCII"),
+        ("under.txt", "cost: 1_0", "under.txt:8: record 1: cost must be a non-negative integer in ASCII"),
+    ],
+)
+def test_bad_costs_are_one_line_input_errors_on_the_command_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str, cost_line: str, fragment: str
+) -> None:
+    from hbtp.cli import EXIT_INPUT, main
+
+    path = tmp_path / name
+    path.write_text(TWO_RECORDS.replace("cost: 12", cost_line), encoding="utf-8")
+    assert main(["dataset", "validate", str(path), "-s", "robothow"]) == EXIT_INPUT
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1
+    assert fragment in err
+    assert "internal error" not in err
+    # As --hints, a file that is not a valid dataset is read as a raw LLM reply: no crash either.
+    code = main(["plan", "-s", "robothow", "-g", "IsIn_milk_fridge & IsClose_fridge", "--hints", str(path)])
+    assert code in (0, 1)
+    assert "internal error" not in capsys.readouterr().err
+
+
+def test_a_5000_digit_jsonl_cost_is_a_one_line_input_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from hbtp.cli import EXIT_INPUT, main
+
+    path = tmp_path / "big.jsonl"
+    line = write_jsonl(read_text(TWO_RECORDS)[:1]).replace('"cost": 12', '"cost": ' + "9" * 5000)
+    path.write_text(line, encoding="utf-8")
+    assert main(["dataset", "validate", str(path), "-s", "robothow"]) == EXIT_INPUT
+    err = capsys.readouterr().err
+    assert err.strip() == f"hbtp: error: {path}:1: invalid JSON: a number with too many digits"
+    code = main(["plan", "-s", "robothow", "-g", "IsIn_milk_fridge & IsClose_fridge", "--hints", str(path)])
+    assert code == EXIT_INPUT
+    assert "internal error" not in capsys.readouterr().err

@@ -74,6 +74,7 @@ def run_fig3(config: Fig3Config, out: Path, execution: Execution = DEFAULT_EXECU
                 "heuristic": config.heuristic,
                 "explored": None,
             },
+            stage=" ".join([config.space, *([config.heuristic] if config.heuristic != "none" else []), f"x{scale:g}"]),
         )
         for scale in config.scales
         for record in records

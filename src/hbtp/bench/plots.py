@@ -6,12 +6,70 @@ Every function takes a benchmark's summary and a path, and returns whether it wr
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 log = logging.getLogger(__name__)
 
 PLANNER_LABELS = {"bte": "BT Expansion", "obtea": "OBTEA", "hbtp-o": "HBTP-O", "hbtp-s": "HBTP-S"}
+HEURISTIC_LABELS = {"none": "no heuristic", "lm": "landmark heuristic (lm)", "hmax": "h_max heuristic"}
+#: Series on one panel get distinct markers (drawn smaller one after the other) and line styles, so
+#: that lines on top of each other all stay visible.
+MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
+LINE_STYLES = ("-", "--", "-.", ":")
+
+
+@dataclass(frozen=True)
+class Series:
+    """One line: its label is ``prefix + variant`` (``ER=`` and ``0.5``)."""
+
+    prefix: str
+    variant: str
+    xs: tuple[float, ...]
+    ys: tuple[float | None, ...]
+
+    @property
+    def label(self) -> str:
+        return self.prefix + self.variant
+
+
+def merge_identical(series: Sequence[Series]) -> list[tuple[int, str, Series]]:
+    """Each distinct line once, as (index of its first series, label, series); lines with exactly the
+    same points would hide each other, so they are drawn once and labelled with every variant:
+    ``ER=0/0.5/1 (identical)``, a line per prefix."""
+    groups: dict[tuple[tuple[float, ...], tuple[float | None, ...]], list[int]] = {}
+    for index, line in enumerate(series):
+        groups.setdefault((line.xs, line.ys), []).append(index)
+    merged = []
+    for indices in groups.values():
+        lines = [series[i] for i in indices]
+        if len(lines) == 1:
+            label = lines[0].label
+        else:
+            variants: dict[str, list[str]] = {}
+            for line in lines:
+                variants.setdefault(line.prefix, []).append(line.variant)
+            label = "\n= ".join(prefix + "/".join(names) for prefix, names in variants.items()) + " (identical)"
+        merged.append((indices[0], label, lines[0]))
+    return merged
+
+
+def _draw(axis: Any, series: Sequence[Series], size: float = 7.0) -> None:
+    """Plot ``series`` on ``axis``: identical ones merged; the others with distinct markers, line
+    styles and marker sizes (the later ones smaller, so that points on top of each other all show).
+    A series keeps its colour and marker from panel to panel."""
+    for index, label, line in merge_identical(series):
+        axis.plot(
+            line.xs,
+            [float("nan") if y is None else y for y in line.ys],
+            color=f"C{index % 10}",
+            marker=MARKERS[index % len(MARKERS)],
+            linestyle=LINE_STYLES[index % len(LINE_STYLES)],
+            markersize=max(3.0, size - 1.2 * (index % 4)),
+            label=label,
+        )
 
 
 def _pyplot() -> Any:
@@ -112,9 +170,18 @@ def plot_robustness(summary: dict[str, Any], path: Path) -> bool:
             axis.bar(xs, values, 0.4, label=f"{tree} tree")
         axis.set_xticks([i + 0.2 for i in range(len(names))])
         axis.set_xticklabels(names, fontsize=8)
-        axis.set(ylabel="runs reaching the goal (%)", ylim=(0, 105), title=f"perturbation p = {p} per tick")
-        axis.legend(fontsize=8, loc="lower left")
+        # The legend sits in the free band above 100 %, clear of the bars.
+        axis.set(ylabel="runs reaching the goal (%)", ylim=(0, 120), title=f"perturbation p = {p} per tick")
+        axis.set_yticks(range(0, 101, 20))
+        axis.legend(fontsize=8, loc="upper center", ncol=2)
     return _save(plt, figure, path)
+
+
+def fig3_title(config: dict[str, Any]) -> str:
+    """What a Figure 3 plot shows: ``full space, no heuristic`` or ``pruned spaces, landmark ...``."""
+    space = "pruned spaces (the records')" if config["space"] == "pruned" else "full space"
+    heuristic = config.get("heuristic", "none")
+    return f"Figure 3: {space}, {HEURISTIC_LABELS.get(heuristic, f'heuristic {heuristic}')}"
 
 
 def plot_fig3(summary: dict[str, Any], path: Path) -> bool:
@@ -122,39 +189,58 @@ def plot_fig3(summary: dict[str, Any], path: Path) -> bool:
     plt = _pyplot()
     if plt is None:
         return False
-    figure, (left, right) = plt.subplots(1, 2, figsize=(11, 3.8))
+    figure, (left, right) = plt.subplots(1, 2, figsize=(11, 4.1))
+    by_size, by_length = [], []
     for planner in summary["config"]["planners"]:
+        name = PLANNER_LABELS.get(planner, planner)
         points = [(c["actions"], c["mean_time_s"]) for c in summary["by_action_space"] if c["planner"] == planner]
-        left.plot([x for x, _ in points], [y for _, y in points], marker="o", label=planner)
+        by_size.append(Series("", name, tuple(x for x, _ in points), tuple(y for _, y in points)))
         points = [(c["p_star"], c["mean_time_s"]) for c in summary["by_path_length"] if c["planner"] == planner]
-        right.plot([x for x, _ in points], [y for _, y in points], marker="o", label=planner)
-    space = summary["config"]["space"]
-    left.set(title=f"(a) time vs |A| ({space} space)", xlabel="grounded actions |A|", ylabel="mean time (s)")
-    right.set(title="(b) time vs |p*| (1x)", xlabel="optimal path length |p*|", ylabel="mean time (s)")
+        by_length.append(Series("", name, tuple(x for x, _ in points), tuple(y for _, y in points)))
+    _draw(left, by_size)
+    _draw(right, by_length)
+    figure.suptitle(fig3_title(summary["config"]))
+    left.set(title="(a) time vs |A|", xlabel="grounded actions |A|", ylabel="mean time (s)")
+    right.set(title="(b) time vs |p*| (scale 1)", xlabel="optimal path length |p*|", ylabel="mean time (s)")
     for axis in (left, right):
         axis.set_yscale("log")
-        axis.legend()
+        axis.legend(fontsize=8)
     return _save(plt, figure, path)
 
 
 def plot_fig4(summary: dict[str, Any], path: Path) -> bool:
-    """The three panels of the paper's Figure 4, if matplotlib (the plot extra) is installed."""
+    """The three panels of the paper's Figure 4, if matplotlib (the plot extra) is installed.
+
+    Lines with the same values (HBTP-O's optimal D(T) at every error rate) are drawn once with all
+    their labels; the others get distinct markers and line styles, so none hides another.
+    """
     plt = _pyplot()
     if plt is None:
         return False
     cells = summary["cells"]
-    figure, axes = plt.subplots(1, 3, figsize=(13, 3.6))
-    panels = [("hbtp-o", "mean_explored", "HBTP-O |S⁻|"), ("hbtp-s", "mean_explored", "HBTP-S |S⁻|")]
-    for axis, (planner, field, title) in zip(axes[:2], panels, strict=True):
-        for error in summary["config"]["error_rates"]:
+    config = summary["config"]
+
+    def series(planner: str, field: str, prefix: str) -> list[Series]:
+        lines = []
+        for error in config["error_rates"]:
             points = [(c["correct"], c[field]) for c in cells if c["planner"] == planner and c["error"] == error]
-            axis.plot([x for x, _ in points], [y for _, y in points], marker="o", label=f"ER={error}")
-        axis.set(title=title, xlabel="correct rate of p̂", ylabel="explored conditions")
-        axis.legend()
-    for planner in summary["config"]["planners"]:
-        for error in summary["config"]["error_rates"]:
-            points = [(c["correct"], c["mean_cost"]) for c in cells if c["planner"] == planner and c["error"] == error]
-            axes[2].plot([x for x, _ in points], [y for _, y in points], marker=".", label=f"{planner} ER={error}")
+            lines.append(Series(prefix, f"{error:g}", tuple(x for x, _ in points), tuple(y for _, y in points)))
+        return lines
+
+    figure, axes = plt.subplots(1, 3, figsize=(15, 3.8), width_ratios=(1, 1, 1.3))
+    for axis, planner in zip(axes[:2], ("hbtp-o", "hbtp-s"), strict=True):
+        _draw(axis, series(planner, "mean_explored", "ER="))
+        axis.set(title=f"{PLANNER_LABELS[planner]} |S⁻|", xlabel="correct rate of p̂", ylabel="explored conditions")
+        axis.legend(fontsize=8)
+    _draw(
+        axes[2],
+        [
+            line
+            for planner in config["planners"]
+            for line in series(planner, "mean_cost", f"{PLANNER_LABELS.get(planner, planner)} ER=")
+        ],
+    )
     axes[2].set(title="D(T)", xlabel="correct rate of p̂", ylabel="cost of the executed actions")
-    axes[2].legend(fontsize=7)
+    # Beside the panel: inside it would cover the lines, which fill the D(T) range.
+    axes[2].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0)
     return _save(plt, figure, path)

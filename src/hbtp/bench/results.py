@@ -61,6 +61,18 @@ def median(values: Sequence[float]) -> float | None:
     return round(statistics.median(values), 6) if values else None
 
 
+def read_json(path: Path) -> Any:
+    """The JSON in ``path``; a file that cannot be read or parsed is an :class:`InputError`."""
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except OSError as error:
+        raise InputError(f"{path}: cannot read: {error.strerror or error}") from None
+    except ValueError as error:  # invalid JSON or UTF-8
+        raise InputError(f"{path}: not valid JSON: {error}") from None
+    except RecursionError:
+        raise InputError(f"{path}: not valid JSON: nested too deeply") from None
+
+
 def write_json(path: Path, data: Any) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n", encoding="utf-8")

@@ -159,6 +159,7 @@ def run_robustness(
                 for p in p_values
                 for kind in TREES
             ),
+            stage=name,
         )
         for name in scenarios
         for record in load_dataset(dataset_of(name))[:limit]

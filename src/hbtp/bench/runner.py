@@ -49,11 +49,13 @@ class Work:
     """One run: ``key`` (names it in logs), ``spec`` (the run function's argument) and ``known``: the
     fields of each row it produces that are known without running it, including the results.jsonl
     key fields (a run is pending while one of its rows is missing; a killed or crashed run gets
-    these rows, unsolved)."""
+    these rows, unsolved). ``stage`` names the sub-part it belongs to (a planner, a scale, a
+    scenario): the progress bar shows it after the benchmark's description while the run starts."""
 
     key: tuple[Any, ...]
     spec: Any
     known: dict[str, Any] | tuple[dict[str, Any], ...] = field(default_factory=dict)
+    stage: str = ""
 
     @property
     def rows(self) -> tuple[dict[str, Any], ...]:
@@ -118,10 +120,10 @@ def run_work(
     """Run every item of ``work`` not in ``results`` with ``function`` and append the rows."""
     pending = [item for item in work if _pending(item, results)]
     limit = execution.kill_after or kill_after
-    bar = tqdm(
+    bar = _Progress(
+        description,
         total=len(work),
         initial=len(work) - len(pending),
-        desc=description,
         disable=not execution.progress,
         unit="run",
     )
@@ -130,6 +132,7 @@ def run_work(
             return
         if execution.executor == "inline":
             for item in pending:
+                bar.starting(item)
                 _store(results, function(item.spec))
                 bar.update(1)
         elif execution.executor == "local":
@@ -138,6 +141,27 @@ def run_work(
             _run_ray(function, pending, results, execution.jobs, limit, bar)
     finally:
         bar.close()
+
+
+class _Progress:
+    """A progress bar whose description names the stage of the run started last
+    (``table1 pruned hbtp-s``), not just the benchmark (``table1``)."""
+
+    def __init__(self, description: str, **options: Any) -> None:
+        self.bar = tqdm(desc=description, **options)
+        self.description = description
+        self.stage = ""
+
+    def starting(self, item: Work) -> None:
+        if item.stage and item.stage != self.stage:
+            self.stage = item.stage
+            self.bar.set_description(f"{self.description} {item.stage}")
+
+    def update(self, count: int) -> None:
+        self.bar.update(count)
+
+    def close(self) -> None:
+        self.bar.close()
 
 
 def _kill_workers(pool: ProcessPoolExecutor) -> None:
@@ -160,7 +184,7 @@ def _new_pool(jobs: int) -> ProcessPoolExecutor:
 
 
 def _run_local(
-    function: RunFunction, pending: Sequence[Work], results: ResultsFile, jobs: int, limit: float, bar: tqdm
+    function: RunFunction, pending: Sequence[Work], results: ResultsFile, jobs: int, limit: float, bar: _Progress
 ) -> None:
     queue = list(reversed(pending))
     # Runs in flight when a worker died: any of them may have killed it, so each runs again alone;
@@ -173,10 +197,12 @@ def _run_local(
         while queue or suspects or running:
             if suspects and not running:
                 item = suspects.pop()
+                bar.starting(item)
                 running[pool.submit(function, item.spec)] = (item, time.monotonic())
                 alone = True
             while queue and not suspects and not alone and len(running) < jobs:
                 item = queue.pop()
+                bar.starting(item)
                 running[pool.submit(function, item.spec)] = (item, time.monotonic())
             nearest = min(started for _, started in running.values()) + limit
             done, _ = wait(running, timeout=max(0.0, nearest - time.monotonic()), return_when=FIRST_COMPLETED)
@@ -220,7 +246,7 @@ def _run_local(
 
 
 def _run_ray(
-    function: RunFunction, pending: Sequence[Work], results: ResultsFile, jobs: int, limit: float, bar: tqdm
+    function: RunFunction, pending: Sequence[Work], results: ResultsFile, jobs: int, limit: float, bar: _Progress
 ) -> None:
     try:
         import ray
@@ -244,6 +270,7 @@ def _run_ray(
         while queue or running:
             while queue and len(running) < jobs:
                 item = queue.pop()
+                bar.starting(item)
                 running[remote.remote(item.spec)] = (item, time.monotonic())
             nearest = min(started for _, started in running.values()) + limit
             done, _ = ray.wait(list(running), num_returns=1, timeout=max(0.0, nearest - time.monotonic()))

@@ -96,9 +96,10 @@ def run_table1(config: Table1Config, out: Path, execution: Execution = DEFAULT_E
                 "explored": None,
                 "cost": None,
             },
+            stage=f"{setting_name(config)} {planner}",
         )
-        for record in records
         for planner in config.planners
+        for record in records
     ]
     run_work(run_one, work, results, execution, kill_after=hard_limit(config.time_limit), description="table1")
     summary = summarise(list(results.ordered(w.key for w in work)), config)
@@ -111,6 +112,16 @@ def setting_label(config: Table1Config) -> str:
     """``pruned space, oracle hints`` or ``full space, no hints, heuristic lm``."""
     label = f"{config.space} space, {'oracle hints' if config.hints == 'oracle' else 'no hints'}"
     return label + (f", heuristic {config.heuristic}" if config.heuristic != "none" else "")
+
+
+def setting_name(config: Table1Config) -> str:
+    """The setting in a few words for progress bars: ``pruned``, ``full``, ``full no-hints lm``."""
+    words: list[str] = [config.space]
+    if config.hints == "none":
+        words.append("no-hints")
+    if config.heuristic != "none":
+        words.append(config.heuristic)
+    return " ".join(words)
 
 
 def write_table1_report(out: Path, summaries: dict[str, dict[str, Any]]) -> None:

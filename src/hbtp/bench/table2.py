@@ -234,6 +234,7 @@ def run_table2(
                 "rounds": 0,
                 "errors": ["killed"],
             },
+            stage=f"run {run}" if config.runs > 1 else "",
         )
         for run in range(config.runs)
         for record in records

@@ -29,13 +29,38 @@ def bench() -> None:
 
 
 @bench.command("table1")
-@click.option("--space", type=click.Choice(["pruned", "full"]), default="pruned", show_default=True)
+@click.option(
+    "--space",
+    type=click.Choice(["pruned", "full"]),
+    default="pruned",
+    show_default=True,
+    help="Action space: pruned from each record's hints, or every action.",
+)
 @click.option("--planners", default=",".join(PLANNERS), show_default=True, help="Comma-separated planners.")
-@click.option("--hints", type=click.Choice(["oracle", "none"]), default="oracle", show_default=True)
-@click.option("--heuristic", type=click.Choice(list(HEURISTICS)), default="none", show_default=True)
+@click.option(
+    "--hints",
+    type=click.Choice(["oracle", "none"]),
+    default="oracle",
+    show_default=True,
+    help="oracle: each record's optimal actions as the heuristic path; none: no heuristic path.",
+)
+@click.option(
+    "--heuristic",
+    type=click.Choice(list(HEURISTICS)),
+    default="none",
+    show_default=True,
+    help="LLM-free heuristic (none: the paper's planners).",
+)
 @click.option("-t", "--time-limit", type=float, default=5.0, show_default=True, help="Seconds per task.")
 @click.option("--limit", type=int, help="Only the first N tasks.")
-@click.option("-o", "--out", "out_dir", required=True, type=click.Path(file_okay=False))
+@click.option(
+    "-o",
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Output folder (results.jsonl, summary.json); re-running resumes.",
+)
 @execution_options
 def table1(
     space: str,
@@ -82,11 +107,25 @@ def table1(
     help="Dataset file whose records are the first-round replies; --llm then answers the feedback rounds.",
 )
 @backend_options
-@click.option("--planner", type=click.Choice(list(PLANNERS)), default="hbtp-s", show_default=True)
-@click.option("--feedback-rounds", type=click.IntRange(0, 10), default=3, show_default=True)
-@click.option("--examples", type=click.IntRange(0, 50), default=5, show_default=True)
-@click.option("--retrieval", type=click.Choice(list(RETRIEVALS)), default="lexical", show_default=True)
-@click.option("--round-time-limit", type=float, default=5.0, show_default=True)
+@click.option(
+    "--planner", type=click.Choice(list(PLANNERS)), default="hbtp-s", show_default=True, help="Planner of every round."
+)
+@click.option(
+    "--feedback-rounds",
+    type=click.IntRange(0, 10),
+    default=3,
+    show_default=True,
+    help="Rounds that ask again with the failed search as feedback.",
+)
+@click.option("--examples", type=click.IntRange(0, 50), default=5, show_default=True, help="Few-shot demonstrations.")
+@click.option(
+    "--retrieval",
+    type=click.Choice(list(RETRIEVALS)),
+    default="lexical",
+    show_default=True,
+    help="How demonstrations are chosen (embeddings: the optional extra).",
+)
+@click.option("--round-time-limit", type=float, default=5.0, show_default=True, help="Planning seconds per round.")
 @click.option("--runs", type=click.IntRange(1, 100), default=1, show_default=True, help="Repeat with seeds 0..N-1.")
 @click.option(
     "--b-time-limit",
@@ -96,7 +135,14 @@ def table1(
     help="Seconds for B-Time (OBTEA, full space, no heuristic) per task; 0 skips it.",
 )
 @click.option("--limit", type=int, help="Only the first N tasks.")
-@click.option("-o", "--out", "out_dir", required=True, type=click.Path(file_okay=False))
+@click.option(
+    "-o",
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Output folder (results.jsonl, summary.json); re-running resumes.",
+)
 @execution_options
 def table2(
     scenarios: tuple[str, ...],
@@ -158,12 +204,31 @@ def _fmt(value: float | None, width: int = 6) -> str:
 
 
 @bench.command("fig4")
-@click.option("--correct-rates", default="0,0.25,0.5,0.75,1", show_default=True)
-@click.option("--error-rates", default="0,0.5,1", show_default=True)
-@click.option("--seeds", type=click.IntRange(1, 100), default=3, show_default=True)
-@click.option("-t", "--time-limit", type=float, default=5.0, show_default=True)
+@click.option(
+    "--correct-rates",
+    default="0,0.25,0.5,0.75,1",
+    show_default=True,
+    help="Comma-separated chances that each optimal action is kept in the heuristic path.",
+)
+@click.option(
+    "--error-rates",
+    default="0,0.5,1",
+    show_default=True,
+    help="Comma-separated numbers of wrong actions inserted, as fractions of |p*| (at most 10).",
+)
+@click.option(
+    "--seeds", type=click.IntRange(1, 100), default=3, show_default=True, help="Noisy paths per task and cell."
+)
+@click.option("-t", "--time-limit", type=float, default=5.0, show_default=True, help="Seconds per run.")
 @click.option("--limit", type=int, help="Only the first N tasks.")
-@click.option("-o", "--out", "out_dir", required=True, type=click.Path(file_okay=False))
+@click.option(
+    "-o",
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Output folder (results.jsonl, summary.json); re-running resumes.",
+)
 @execution_options
 def fig4(
     correct_rates: str, error_rates: str, seeds: int, time_limit: float, limit: int | None, out_dir: str,
@@ -190,12 +255,31 @@ def fig4(
 
 @bench.command("fig3")
 @click.option("--scales", default="1,1.5,2,2.5,3", show_default=True, help="Object multipliers of RobotHow.")
-@click.option("--planners", default=",".join(PLANNERS), show_default=True)
-@click.option("--space", type=click.Choice(["full", "pruned"]), default="full", show_default=True)
-@click.option("--heuristic", type=click.Choice(list(HEURISTICS)), default="none", show_default=True)
-@click.option("-t", "--time-limit", type=float, default=5.0, show_default=True)
+@click.option("--planners", default=",".join(PLANNERS), show_default=True, help="Comma-separated planners.")
+@click.option(
+    "--space",
+    type=click.Choice(["full", "pruned"]),
+    default="full",
+    show_default=True,
+    help="Action space: every action, or pruned from each record's hints.",
+)
+@click.option(
+    "--heuristic",
+    type=click.Choice(list(HEURISTICS)),
+    default="none",
+    show_default=True,
+    help="LLM-free heuristic (none: the paper's planners).",
+)
+@click.option("-t", "--time-limit", type=float, default=5.0, show_default=True, help="Seconds per task.")
 @click.option("--limit", type=int, default=20, show_default=True, help="Table I tasks per scale.")
-@click.option("-o", "--out", "out_dir", required=True, type=click.Path(file_okay=False))
+@click.option(
+    "-o",
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Output folder (results.jsonl, summary.json); re-running resumes.",
+)
 @execution_options
 def fig3(
     scales: str, planners: str, space: str, heuristic: str, time_limit: float, limit: int, out_dir: str,
@@ -230,7 +314,14 @@ def fig3(
 @click.option("--llm", "llm_spec", default="local", show_default=True, help="Table II backend (see hbtp plan --llm).")
 @backend_options
 @click.option("--runs", type=click.IntRange(1, 100), default=1, show_default=True, help="Table II runs (seeds).")
-@click.option("-o", "--out", "out_dir", required=True, type=click.Path(file_okay=False))
+@click.option(
+    "-o",
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Output folder (results.jsonl, summary.json); re-running resumes.",
+)
 @execution_options
 def bench_all(
     quick: bool,

@@ -38,7 +38,7 @@ def dataset() -> None:
 
 
 @dataset.command("list")
-@click.option("--json", "as_json", is_flag=True)
+@click.option("--json", "as_json", is_flag=True, help="Print the list as JSON.")
 def list_datasets(as_json: bool) -> int:
     """List the shipped datasets and their scenarios."""
     rows = [{"name": n, "scenario": DATASET_SCENARIO[n], "records": len(load_dataset(n))} for n in dataset_names()]
@@ -57,7 +57,7 @@ def list_datasets(as_json: bool) -> int:
     "--check-optimal", is_flag=True, help="Also plan each goal optimally and warn about plans that cost more."
 )
 @click.option("-t", "--time-limit", type=float, default=30.0, show_default=True, help="Seconds per optimal plan.")
-@click.option("--json", "as_json", is_flag=True)
+@click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 def validate(source: str, scenario: str | None, check_optimal: bool, time_limit: float, as_json: bool) -> int:
     """Check every record of SOURCE (a file or a shipped dataset name) against a scenario.
 

@@ -32,11 +32,19 @@ def _figure(value: float | None, percent: bool = False) -> str:
 )
 @click.option("--p", "p_text", default="0.1,0.2", show_default=True, help="Comma-separated probabilities per tick.")
 @click.option("--runs", type=int, default=20, show_default=True, help="Perturbed runs per task, tree and p.")
-@click.option("--seed", type=int, default=0, show_default=True)
-@click.option("--scenarios", "scenario_text", default=",".join(SCENARIOS), show_default=True)
-@click.option("--planner", type=click.Choice(list(PLANNERS)), default="hbtp-s", show_default=True)
-@click.option("--heuristic", type=click.Choice(list(HEURISTICS)), default="lm", show_default=True)
-@click.option("--max-ticks", type=int, default=MAX_TICKS, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the random events.")
+@click.option(
+    "--scenarios", "scenario_text", default=",".join(SCENARIOS), show_default=True, help="Comma-separated scenarios."
+)
+@click.option(
+    "--planner", type=click.Choice(list(PLANNERS)), default="hbtp-s", show_default=True, help="Planner of the trees."
+)
+@click.option(
+    "--heuristic", type=click.Choice(list(HEURISTICS)), default="lm", show_default=True, help="LLM-free heuristic."
+)
+@click.option(
+    "--max-ticks", type=int, default=MAX_TICKS, show_default=True, help="Ticks per run before it counts as failed."
+)
 @click.option(
     "--robust", type=click.IntRange(0), default=0, show_default=True, help="Extra expansions after each solution."
 )

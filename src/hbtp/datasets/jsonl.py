@@ -32,6 +32,10 @@ def read_jsonl(text: str, source: str = "<string>") -> list[Record]:
             data = json.loads(line)
         except json.JSONDecodeError as error:
             raise DatasetError(f"invalid JSON: {error.msg} (column {error.colno})", source, number) from None
+        except ValueError:  # an integer of more than 4300 digits (int()'s limit)
+            raise DatasetError("invalid JSON: a number with too many digits", source, number) from None
+        except RecursionError:
+            raise DatasetError("invalid JSON: nested too deeply", source, number) from None
         try:
             record = Record.from_dict(data, line=number)
         except InputError as error:

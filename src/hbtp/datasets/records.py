@@ -20,6 +20,8 @@ _LIST_FIELDS = ("optimal_actions", "vital_predicates", "vital_objects")
 _TEXT_FIELDS = ("id", "goal", "instruction", "environment")
 _KEYS = frozenset((*_TEXT_FIELDS, *_LIST_FIELDS, "cost"))
 _REQUIRED = ("id", "goal", *_LIST_FIELDS)
+#: Declared costs are below this (at most 18 digits), in both file formats.
+MAX_COST = 10**18
 
 
 @dataclass(frozen=True, slots=True)
@@ -87,6 +89,9 @@ class Record:
         cost = data.get("cost")
         if cost is not None and (isinstance(cost, bool) or not isinstance(cost, int)):
             raise InputError(f"'cost' must be an integer or null, got {cost!r}")
+        if cost is not None and not 0 <= cost < MAX_COST:
+            shown = str(cost) if len(str(cost)) <= 40 else f"{str(cost)[:40]}... ({len(str(cost))} digits)"
+            raise InputError(f"'cost' must be a non-negative integer below 10**18, got {shown}")
         return cls(
             id=data["id"],
             goal=data["goal"],

@@ -14,8 +14,9 @@ lines::
 
 ``Goals``, ``Optimal Actions``, ``Vital Action Predicates`` and ``Vital Objects`` are required (the
 lists may be empty: an empty ``Optimal Actions`` means the goal already holds); ``Environment``
-(default ``1``), ``Instruction`` (default empty) and ``cost`` are optional. The reader accepts the
-keys in any order; the writer uses the order above.
+(default ``1``), ``Instruction`` (default empty) and ``cost`` (ASCII digits ``0-9``, at most 18
+significant ones) are optional. The reader accepts the keys in any order; the writer uses the order
+above.
 
 Round trip: one space after the colon separates key and value; everything after it is the value.
 ``Goals`` and ``Instruction`` are kept verbatim, so the shipped files' stray spaces (``Instruction:  ``
@@ -32,7 +33,7 @@ import re
 from collections.abc import Iterable
 from pathlib import Path
 
-from hbtp.datasets.records import Record
+from hbtp.datasets.records import MAX_COST, Record
 from hbtp.errors import DatasetError, InputError
 from hbtp.logic.atoms import parse_conjunction
 
@@ -51,7 +52,11 @@ REQUIRED = (GOALS, ACTIONS, PREDICATES, OBJECTS)
 _KEY_LINE = re.compile(r"^([A-Za-z][A-Za-z ]*?):(.*)$")
 _TOKEN = re.compile(r"[^\s:,]+")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_\-]*")
-_COST = re.compile(r"\d+")
+#: ASCII digits only: ``re``'s ``\d`` and ``int()`` also take other scripts' digits (``٣``), and
+#: ``int()`` takes ``1_0``.
+_COST = re.compile(r"[0-9]+")
+#: Longer costs are refused (as in JSONL: ``MAX_COST``; ``int()`` refuses more than 4300 digits).
+MAX_COST_DIGITS = len(str(MAX_COST - 1))
 
 
 # ------------------------------------------------------------------ reading
@@ -182,9 +187,14 @@ def _parse_list(value: str, key: str) -> tuple[str, ...]:
 
 
 def _parse_cost(text: str) -> int:
-    if not _COST.fullmatch(text.strip()):
-        raise InputError(f"cost must be a non-negative integer, got {text.strip()!r}")
-    return int(text)
+    digits = text.strip()
+    if not _COST.fullmatch(digits):
+        shown = digits if len(digits) <= 40 else digits[:40] + "..."
+        raise InputError(f"cost must be a non-negative integer in ASCII digits, got {shown!r}")
+    significant = digits.lstrip("0") or "0"
+    if len(significant) > MAX_COST_DIGITS:
+        raise InputError(f"cost has {len(significant)} digits; at most {MAX_COST_DIGITS} are allowed")
+    return int(significant)
 
 
 # ------------------------------------------------------------------ checks
