@@ -540,3 +540,24 @@ def test_plan_api_accepts_a_valid_alpha(robowaiter: Scenario, alpha: Any) -> Non
     assert result.cost == optimum.cost  # a correct heuristic path: HBTP-O is optimal for any alpha
     run_result = run_tree(tree_of(result), task, task.initial_state, max_ticks=100)
     assert run_result.reached
+
+
+def test_a_goal_with_many_unreachable_literals_gets_a_short_message(
+    capsys: pytest.CaptureFixture[str], robothow_small: Scenario
+) -> None:
+    task = robothow_small.task
+    candidates = [f"IsClose_{o}" for o in task.objects] + [f"IsOpen_{o}" for o in task.objects]
+    unreachable = []
+    for literal in candidates:
+        try:
+            if task.resolve_goal(literal).unreachable:
+                unreachable.append(literal)
+        except InputError:
+            continue
+    assert len(unreachable) > 12
+    code, out, _ = run(capsys, "plan", "-s", "robothow-small", "-g", " & ".join(unreachable))
+    assert code == EXIT_NOT_SOLVED
+    first = out.splitlines()[0]
+    assert first.startswith("unsolvable:")
+    assert f"and {len(unreachable) - 10} more" in first
+    assert len(first) < 600

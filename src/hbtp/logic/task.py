@@ -221,3 +221,11 @@ class GroundTask:
     def restricted(self, action_ids: Iterable[int]) -> tuple[GroundAction, ...]:
         """The actions with the given indices, in task order (an action space for the planner)."""
         return tuple(self.actions[i] for i in sorted(set(action_ids)))
+
+
+def listing(names: Iterable[str], most: int = 10) -> str:
+    """``a, b, c`` for a message: at most ``most`` names, then how many more there are."""
+    shown = list(names)
+    if len(shown) <= most:
+        return ", ".join(shown)
+    return ", ".join(shown[:most]) + f" and {len(shown) - most} more"

@@ -38,7 +38,7 @@ from typing import Literal
 
 from hbtp.deadline import TimeLimitReached
 from hbtp.domains.mutex import Mutexes
-from hbtp.logic.task import Goal, GroundAction, GroundTask
+from hbtp.logic.task import Goal, GroundAction, GroundTask, listing
 from hbtp.planning.execution import execute_expansions
 from hbtp.planning.heuristics import Heuristic, HeuristicName, LandmarkSum, analyse_space, build_heuristic
 from hbtp.planning.hints import ResolvedHints
@@ -122,7 +122,7 @@ def search(
         return PlanResult(status, config.name, goal, message=message, stats=stats)
 
     if goal.unreachable:
-        names = ", ".join(str(a) for a in goal.unreachable)
+        names = listing(str(a) for a in goal.unreachable)
         return finish(Status.UNSOLVABLE, f"no action makes {names} true and s0 does not hold it")
     if mutexes is not None:
         clash = mutexes.conflict(goal.ids)
@@ -143,7 +143,7 @@ def search(
             return finish(Status.TIMEOUT, str(stop))
         if run.heuristic is not None and math.isinf(run.heuristic(goal.ids)):
             dead = [a for a in sorted(goal.ids) if math.isinf(run.heuristic((a,)))]
-            names = ", ".join(task.names(dead)) or str(goal)
+            names = listing(task.names(dead)) or str(goal)
             return finish(Status.UNSOLVABLE, f"{names} cannot be reached from s0 with this action space")
         result = run.run()
         run.release()
