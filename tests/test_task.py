@@ -219,3 +219,23 @@ def test_a_10000_literal_goal_is_resolved_or_rejected_in_one_pass(robothow: Scen
     assert goal.unreachable  # most of these literals are never grounded
     with pytest.raises(InputError, match="static fact"):
         task.resolve_goal(" & ".join([*pairs, "grabbable(apple)"]))
+
+
+def test_derived_tables_are_built_once_per_task_and_not_pickled(kitchen: GroundTask) -> None:
+    import pickle
+
+    builds: list[int] = []
+
+    def build() -> list[int]:
+        builds.append(1)
+        return [len(kitchen.actions)]
+
+    first = kitchen.derived(build, build)
+    assert kitchen.derived(build, build) is first
+    assert len(builds) == 1
+    copy = pickle.loads(pickle.dumps(kitchen))
+    assert "_derived" not in copy.__dict__
+    assert copy.derived("other", lambda: 7) == 7
+    kitchen.forget_derived()
+    assert kitchen.derived(build, build) == first
+    assert len(builds) == 2

@@ -9,14 +9,16 @@ States and conditions are ``frozenset[int]`` of atom ids; :class:`Atom` names ar
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Hashable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any, TypeVar, cast
 
 from hbtp.errors import InputError, UnknownSymbolError
 from hbtp.logic.atoms import Atom, parse_atom, parse_conjunction
 
 State = frozenset[int]
+_T = TypeVar("_T")
 Condition = frozenset[int]
 
 
@@ -135,6 +137,37 @@ class GroundTask:
             if len(fact.args) == 1:
                 table.setdefault(fact.predicate, []).append(fact.args[0])
         return {name: tuple(sorted(members)) for name, members in sorted(table.items())}
+
+    # ------------------------------------------------------ the per-task index
+    @cached_property
+    def _derived(self) -> dict[Hashable, Any]:
+        return {}
+
+    def derived(self, key: Hashable, build: Callable[[], _T]) -> _T:
+        """What ``build()`` computes from this task, computed once and kept with the task.
+
+        The one home of every per-task table the layers above need (the prompt vocabulary, the
+        heuristics' analyses, the disturbance model…): it lives exactly as long as the task, unlike a
+        module-level cache. ``key`` names the table, usually the building function itself, or a
+        tuple of it and its arguments. Not thread-safe against two first builds of one key (both
+        compute the same value; one is kept).
+        """
+        memo = self._derived
+        try:
+            return cast(_T, memo[key])
+        except KeyError:
+            value = memo[key] = build()
+            return value
+
+    def forget_derived(self) -> None:
+        """Drop every table :meth:`derived` keeps (they are rebuilt on demand)."""
+        self._derived.clear()
+
+    def __getstate__(self) -> dict[str, Any]:
+        # Derived tables are rebuilt where the task is unpickled (a worker process), not shipped.
+        state = dict(self.__dict__)
+        state.pop("_derived", None)
+        return state
 
     def atom(self, atom_id: int) -> Atom:
         return self.atoms[atom_id]
