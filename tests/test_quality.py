@@ -31,3 +31,35 @@ def test_mypy_strict_on_the_package() -> None:
     mypy = _tool("mypy")
     result = subprocess.run([mypy], cwd=ROOT, capture_output=True, text=True)
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+MAX_FUNCTION_LINES = 60
+MAX_PARAMETERS = 10
+
+
+def _functions(path: Path) -> list[tuple[str, int, int, int]]:
+    """(name, line, body lines, parameters) of every function in ``path`` (``self``/``cls`` not counted)."""
+    import ast
+
+    found: list[tuple[str, int, int, int]] = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            arguments = node.args
+            names = [a.arg for a in (*arguments.posonlyargs, *arguments.args, *arguments.kwonlyargs)]
+            names += [a.arg for a in (arguments.vararg, arguments.kwarg) if a is not None]
+            count = len(names) - (1 if names[:1] in (["self"], ["cls"]) else 0)
+            lines = (node.end_lineno or node.lineno) - node.lineno + 1
+            found.append((node.name, node.lineno, lines, count))
+    return found
+
+
+def test_functions_are_short_and_take_few_parameters() -> None:
+    """The consolidation's size rule: no function over 60 lines or with more than 10 parameters
+    (a command's options travel as one dataclass)."""
+    offenders = [
+        f"{path.relative_to(ROOT)}:{line} {name}: {lines} lines, {count} parameters"
+        for path in sorted((ROOT / "src" / "hbtp").rglob("*.py"))
+        for name, line, lines, count in _functions(path)
+        if lines > MAX_FUNCTION_LINES or count > MAX_PARAMETERS
+    ]
+    assert not offenders, "\n".join(offenders)

@@ -1,4 +1,4 @@
-"""The grounded STRIPS task: applicability, progression, regression, execution and goal resolution."""
+"""The grounded STRIPS task: applicability, progression, execution and goal resolution."""
 
 from __future__ import annotations
 
@@ -45,31 +45,6 @@ def test_progression_adds_win_over_deletes() -> None:
     action = _action(pre=set(), add={1}, delete={1})
     assert action.progress(frozenset({1})) == frozenset({1})
     assert action.progress(frozenset()) == frozenset({1})
-
-
-def test_regression_is_pre_union_condition_minus_add() -> None:
-    action = _action(pre={0, 1}, add={2}, delete={0})
-    assert action.regress(frozenset({2, 3})) == frozenset({0, 1, 3})
-    assert action.regress(frozenset({2})) == frozenset({0, 1})
-    # An action that achieves nothing of the condition still regresses it (the planner filters these).
-    assert action.regress(frozenset({3})) == frozenset({0, 1, 3})
-
-
-def test_regression_is_undefined_when_the_action_deletes_part_of_the_condition() -> None:
-    action = _action(pre={0, 1}, add={2}, delete={0})
-    assert action.regress(frozenset({0, 2})) is None
-    assert action.regress(frozenset({0})) is None
-
-
-def test_regression_and_progression_agree() -> None:
-    # Applying the action in any state that satisfies the regressed condition reaches the condition.
-    action = _action(pre={0, 1}, add={2}, delete={0, 4})
-    condition = frozenset({2, 3})
-    regressed = action.regress(condition)
-    assert regressed is not None
-    assert action.applicable(regressed)
-    assert condition <= action.progress(regressed)
-    assert condition <= action.progress(regressed | {4, 5})
 
 
 def test_action_name_predicate_and_objects() -> None:

@@ -48,6 +48,7 @@ from typing import Any
 
 from hbtp.bt.nodes import Action, Condition, Fallback, Node, NodeStatus, tick
 from hbtp.bt.nodes import Sequence as SequenceNode
+from hbtp.logic.subsets import SubsetIndex
 from hbtp.logic.task import GroundTask
 
 log = logging.getLogger(__name__)
@@ -476,30 +477,16 @@ def _check_goal_branches(branches: Sequence[Branch], goal: frozenset[int], found
 def _check_progress(branches: Sequence[Branch], task: GroundTask, found: _Collector) -> bool:
     """Every action branch leads to the condition of an earlier branch (see the module docstring)."""
     conditions = [branch.condition(task) for branch in branches]
-    index: dict[int, list[int]] = {}
-    empty_seen = False
+    earlier = SubsetIndex()
     ok = True
     for position, (branch, condition) in enumerate(zip(branches, conditions, strict=True)):
         if branch.action is not None:
-            action = task.actions[branch.action]
-            after = (condition - action.delete) | action.add
-            if not (empty_seen or _some_subset(after, index, conditions)):
+            after = task.actions[branch.action].progress(condition)
+            if not earlier.has_subset(after):
                 ok = False
                 _report_no_progress(position, branch, after, conditions, branches, found)
-        if not condition:
-            empty_seen = True
-        else:
-            key = min(condition, key=lambda atom: len(index.get(atom, ())))
-            index.setdefault(key, []).append(position)
+        earlier.add(condition)
     return ok
-
-
-def _some_subset(state: frozenset[int], index: dict[int, list[int]], conditions: Sequence[frozenset[int]]) -> bool:
-    for atom in state:
-        for position in index.get(atom, ()):
-            if conditions[position] <= state:
-                return True
-    return False
 
 
 def _report_no_progress(

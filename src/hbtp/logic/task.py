@@ -2,7 +2,8 @@
 
 Semantics (pyperplan's three lines): an action is applicable in ``s`` when ``pre <= s``;
 progression is ``(s - delete) | add``; regression of a condition ``c`` through ``a`` is defined when
-``c & delete`` is empty and gives ``pre | (c - add)``.
+``c & delete`` is empty and gives ``pre | (c - add)`` (the backward search, :mod:`hbtp.planning.search`,
+computes it inline, with its mutex check).
 
 States and conditions are ``frozenset[int]`` of atom ids; :class:`Atom` names are kept at the edges.
 """
@@ -50,15 +51,6 @@ class GroundAction:
 
     def progress(self, state: State) -> State:
         return (state - self.delete) | self.add
-
-    def regress(self, condition: Condition) -> Condition | None:
-        """The weakest condition under which applying this action makes ``condition`` hold.
-
-        ``None`` when the action deletes part of ``condition``.
-        """
-        if condition & self.delete:
-            return None
-        return self.pre | (condition - self.add)
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,6 @@ from hbtp.planning.hints import (
     Hints,
     ResolvedHints,
     hints_from_names,
-    hints_from_record,
     pruned_action_space,
     resolve_hints,
 )
@@ -25,7 +24,6 @@ __all__ = [
     "SearchStats",
     "Status",
     "hints_from_names",
-    "hints_from_record",
     "plan",
     "planner_config",
     "pruned_action_space",

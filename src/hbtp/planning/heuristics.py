@@ -38,6 +38,11 @@ class Heuristic(Protocol):
 
     def __call__(self, condition: Iterable[int]) -> float: ...
 
+    def precondition_bound(self, action: GroundAction) -> float:
+        """A lower bound of the estimate of any condition that holds ``action``'s precondition (the
+        search orders an atom's achievers by it; ``inf``: the precondition is a dead end)."""
+        ...
+
 
 def hmax_table(
     task: GroundTask,
@@ -160,28 +165,32 @@ class SpaceAnalysis:
                 self.pre_landmarks[action.index] = frozenset().union(*parts) - s0  # type: ignore[arg-type]
 
 
-_ANALYSES: dict[tuple[int, object], tuple[GroundTask, SpaceAnalysis]] = {}
+#: How many analyses of pruned action spaces a task keeps (the most recent ones): a planner comparison
+#: searches one pruned space several times, and its analysis costs about as much as the search.
+_RECENT_SPACES = 16
 
 
 def analyse_space(task: GroundTask, actions: Sequence[GroundAction], deadline: Deadline | None = None) -> SpaceAnalysis:
-    """The (cached) analysis of ``actions`` in ``task``; the full space and small spaces are cached.
+    """The analysis of ``actions`` in ``task``, kept with the task: the full space's, and the
+    :data:`_RECENT_SPACES` most recent pruned spaces'.
 
-    Past ``deadline`` it raises :class:`~hbtp.deadline.TimeLimitReached` (and caches nothing)."""
-    key: tuple[int, object] = (
-        id(task),
-        "full" if len(actions) == len(task.actions) else tuple(a.index for a in actions),
-    )
-    cached = _ANALYSES.get(key)
-    if cached is not None and cached[0] is task:
-        return cached[1]
-    analysis = SpaceAnalysis(task, actions, deadline)
-    if len(_ANALYSES) >= 64:
-        _ANALYSES.pop(next(iter(_ANALYSES)))
-    _ANALYSES[key] = (task, analysis)
+    Past ``deadline`` it raises :class:`~hbtp.deadline.TimeLimitReached` (and keeps nothing)."""
+    if len(actions) == len(task.actions):
+        return task.derived((SpaceAnalysis, "full"), lambda: SpaceAnalysis(task, actions, deadline))
+    recent: dict[tuple[int, ...], SpaceAnalysis] = task.derived((SpaceAnalysis, "recent"), dict)
+    key = tuple(a.index for a in actions)
+    analysis = recent.get(key)
+    if analysis is None:
+        analysis = SpaceAnalysis(task, actions, deadline)
+        if len(recent) >= _RECENT_SPACES:
+            recent.pop(next(iter(recent)))
+        recent[key] = analysis
     return analysis
 
 
 class HMax:
+    """``max(hmax(l) for l in c)`` over a table of atom costs."""
+
     def __init__(self, table: Sequence[float]) -> None:
         self.table = table
 
@@ -189,20 +198,29 @@ class HMax:
         table = self.table
         return max((table[a] for a in condition), default=0.0)
 
+    def precondition_bound(self, action: GroundAction) -> float:
+        return self(action.pre)
+
 
 class LandmarkSum:
-    """``max(hmax, ceil(Σ cost(f) for f in L(c)))`` (see the module docstring); ``hmax`` may be omitted."""
+    """``max(hmax, ceil(Σ cost(f) for f in L(c)))`` (see the module docstring); ``hmax`` may be omitted.
+
+    ``pre_landmarks`` holds, by action index, the landmarks of each action's precondition that s0
+    lacks (``None``: a dead end), as :class:`SpaceAnalysis` computes them.
+    """
 
     def __init__(
         self,
         landmarks: Sequence[frozenset[int] | None],
         share: Sequence[float],
         initial_state: frozenset[int],
+        pre_landmarks: Mapping[int, frozenset[int] | None],
         hmax: Sequence[float] | None = None,
     ) -> None:
         self.landmarks = landmarks
         self.share = share
         self.initial_state = initial_state
+        self.pre_landmarks = pre_landmarks
         self.hmax = hmax
 
     def __call__(self, condition: Iterable[int]) -> float:
@@ -222,8 +240,9 @@ class LandmarkSum:
             return max(float(total), max(hmax[a] for a in condition))
         return float(total)
 
-    def of_landmarks(self, landmarks: frozenset[int] | None) -> float:
-        """The landmark part for a precomputed landmark set (already without s0)."""
+    def precondition_bound(self, action: GroundAction) -> float:
+        """The landmark part of the estimate for ``action``'s precondition (an action of the space)."""
+        landmarks = self.pre_landmarks[action.index]
         if landmarks is None:
             return math.inf
         share = self.share
@@ -275,4 +294,5 @@ def build_heuristic(
             for atom in adds:
                 if value < share[atom]:
                     share[atom] = value
-    return LandmarkSum(analysis.landmarks, share, task.initial_state, analysis.hmax if plain else None)
+    hmax = analysis.hmax if plain else None
+    return LandmarkSum(analysis.landmarks, share, task.initial_state, analysis.pre_landmarks, hmax)

@@ -61,6 +61,7 @@ class LimitWatch:
 
     def __init__(self, limits: Limits, started: float) -> None:
         self.limits = limits
+        self.started = started  # the run's start (time.perf_counter())
         self.deadline = started + limits.time_s if limits.time_s is not None else None
         self.seconds = limits.time_s
         shared = limits.deadline

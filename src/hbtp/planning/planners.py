@@ -4,25 +4,33 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import math
 from collections.abc import Sequence
-from fractions import Fraction
 from typing import Literal
 
 from hbtp.domains.mutex import Mutexes
 from hbtp.errors import InputError
 from hbtp.logic.task import Goal, GroundAction, GroundTask
+from hbtp.planning.costs import (
+    DEFAULT_ALPHA,
+    MAX_ALPHA,
+    ActionCosts,
+    DiscountedCosts,
+    FreeOwedCosts,
+    Number,
+    UnitCosts,
+    check_alpha,
+)
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
 from hbtp.planning.hints import Hints, ResolvedHints, pruned_action_space, resolve_hints
 from hbtp.planning.limits import Limits
 from hbtp.planning.result import PlanResult, SearchStats, Status
-from hbtp.planning.search import Number, SearchConfig, search
+from hbtp.planning.search import SearchConfig, search
 
 PLANNERS: dict[str, SearchConfig] = {
-    "bte": SearchConfig("bte", "unit"),
-    "obtea": SearchConfig("obtea", "cost"),
-    "hbtp-o": SearchConfig("hbtp-o", "optimal-heuristic"),
-    "hbtp-s": SearchConfig("hbtp-s", "satisficing-heuristic"),
+    "bte": SearchConfig("bte", UnitCosts()),
+    "obtea": SearchConfig("obtea", ActionCosts()),
+    "hbtp-o": SearchConfig("hbtp-o", DiscountedCosts(DEFAULT_ALPHA)),
+    "hbtp-s": SearchConfig("hbtp-s", FreeOwedCosts()),
 }
 PLANNER_DESCRIPTIONS = {
     "bte": "BT Expansion: breadth-first, costs ignored (sound and complete, not optimal)",
@@ -31,39 +39,34 @@ PLANNER_DESCRIPTIONS = {
     "hbtp-s": "HBTP-S: heuristic path actions cost 0 while owed (fastest, satisficing)",
 }
 Space = Literal["full", "pruned"]
-#: The largest α: the heuristics compute in floats, exact while D·α stays below 2^53 (with plan costs up
-#: to 10^6); far larger α overflow them.
-MAX_ALPHA = 10**9
 
 log = logging.getLogger(__name__)
 
+__all__ = [
+    "MAX_ALPHA",
+    "PLANNERS",
+    "PLANNER_DESCRIPTIONS",
+    "Space",
+    "check_alpha",
+    "confirmed_search",
+    "plan",
+    "planner_config",
+]
 
-def planner_config(name: str, *, heuristic: HeuristicName = "none", alpha: Number = 10_000) -> SearchConfig:
-    """The :class:`SearchConfig` of a registered planner, with the given options."""
+
+def planner_config(name: str, *, heuristic: HeuristicName = "none", alpha: Number = DEFAULT_ALPHA) -> SearchConfig:
+    """The :class:`SearchConfig` of a registered planner, with the given options.
+
+    ``alpha`` (HBTP-O's divisor, any finite number from 1 to :data:`MAX_ALPHA`) is checked for every
+    planner, used by HBTP-O only.
+    """
     try:
         base = PLANNERS[name]
     except KeyError:
         raise InputError(f"unknown planner {name!r}; choose one of: {', '.join(PLANNERS)}") from None
     if heuristic not in HEURISTICS:
         raise InputError(f"unknown heuristic {heuristic!r}; choose one of: {', '.join(HEURISTICS)}")
-    return dataclasses.replace(base, heuristic=heuristic, alpha=check_alpha(alpha))
-
-
-def check_alpha(alpha: object) -> Number:
-    """``alpha`` if it is a valid HBTP-O discount divisor: a finite number from 1 to :data:`MAX_ALPHA`.
-
-    An owed action costs D(a)/α, so α < 1 would make the heuristic path dearer than any other
-    path, and a non-finite α has no step cost at all. Whole floats become ints (exact arithmetic).
-    """
-    if isinstance(alpha, bool) or not isinstance(alpha, int | float | Fraction):
-        raise InputError(f"alpha must be a number, not {alpha!r}")
-    if isinstance(alpha, float) and not math.isfinite(alpha):
-        raise InputError(f"alpha must be a finite number, not {alpha}")
-    if not 1 <= alpha <= MAX_ALPHA:
-        raise InputError(f"alpha must be between 1 and {MAX_ALPHA:,}, not {alpha}")
-    if isinstance(alpha, float) and alpha.is_integer():
-        return int(alpha)
-    return alpha
+    return dataclasses.replace(base, heuristic=heuristic, costs=base.costs.with_alpha(check_alpha(alpha)))
 
 
 def plan(
@@ -75,7 +78,7 @@ def plan(
     space: Space = "full",
     mutexes: Mutexes | None = None,
     heuristic: HeuristicName = "none",
-    alpha: Number = 10_000,
+    alpha: Number = DEFAULT_ALPHA,
     limits: Limits | None = None,
     extra_expansions: int = 0,
 ) -> PlanResult:

@@ -17,6 +17,8 @@ class Status(enum.Enum):
     TIMEOUT = "timeout"
     NODE_LIMIT = "node-limit"
     MEMORY_LIMIT = "memory-limit"
+    ERROR = "error"  # an internal error of the search (a bug): nothing is proved
+    NOT_PLANNED = "not-planned"  # no search ran (the LLM gave nothing and no fallback was allowed): no verdict
 
     @property
     def solved(self) -> bool:

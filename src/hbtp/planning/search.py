@@ -5,15 +5,10 @@ that adds one of its literals and deletes none (``c_a = pre(a) | (c - add(a))``)
 taken off the open list by priority; every expanded condition becomes a ``Sequence(c, a)`` of the
 behavior tree; the search stops when an expanded condition holds in s0.
 
-BT Expansion, OBTEA, HBTP-O and HBTP-S differ only in the *step cost* ``h(a)`` of an action:
-
-* ``bte``: 1 (breadth-first, costs ignored);
-* ``obtea``: ``D(a)``;
-* ``hbtp-o``: ``D(a)/α`` while the heuristic path p̂ still owes ``a`` on this search path, else ``D(a)``
-  (costs are kept as integers scaled by α when α is a whole number);
-* ``hbtp-s``: 0 while owed, else ``D(a)``.
-
-With ``heuristic="hmax"`` the priority becomes ``g + h_max`` for OBTEA (A*, still optimal) and
+BT Expansion, OBTEA, HBTP-O and HBTP-S differ only in the *step cost* of an action, a
+:class:`~hbtp.planning.costs.StepCosts` value: the full cost, and the reduced cost while the heuristic
+path p̂ still owes the action on this search path. With an LLM-free heuristic (``hmax``, ``lm``) the
+priority becomes ``g + h`` (A*, so OBTEA stays optimal) for every planner but BT Expansion, and
 conditions with an unreachable literal are dropped for every planner.
 
 Speed: actions are indexed by the atoms they add; the best known value per condition is kept
@@ -26,39 +21,44 @@ so runs are deterministic.
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import heapq
 import logging
 import math
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from fractions import Fraction
-from typing import Literal
 
+from hbtp.collector import collector_paused
 from hbtp.deadline import TimeLimitReached
 from hbtp.domains.mutex import Mutexes
+from hbtp.logic.subsets import SubsetIndex
 from hbtp.logic.task import Goal, GroundAction, GroundTask, listing
+from hbtp.planning.costs import Number, StepCosts
 from hbtp.planning.execution import execute_expansions
-from hbtp.planning.heuristics import Heuristic, HeuristicName, LandmarkSum, analyse_space, build_heuristic
+from hbtp.planning.heuristics import Heuristic, HeuristicName, build_heuristic
 from hbtp.planning.hints import ResolvedHints
 from hbtp.planning.limits import Limits, LimitWatch
 from hbtp.planning.result import Expansion, PlanResult, SearchStats, Status
 
 log = logging.getLogger(__name__)
 
-StepCost = Literal["unit", "cost", "optimal-heuristic", "satisficing-heuristic"]
-Number = int | float | Fraction
-
 
 @dataclass(frozen=True)
 class SearchConfig:
-    """One planner: how an action's step cost is computed, and the optional LLM-free heuristic."""
+    """One planner: its step costs, and the optional LLM-free heuristic."""
 
     name: str
-    step_cost: StepCost
-    alpha: Number = 10_000
+    costs: StepCosts
     heuristic: HeuristicName = "none"
+
+
+# An open-list entry: (priority, owed, unmet, order, g, condition, resume), compared left to right:
+# the priority, then the number of actions p̂ still owes, the number of literals false in s0, the
+# insertion order; then g, the condition and whether the entry resumes the condition's pending
+# children (see _Search.generate). A plain tuple: a NamedTuple costs 0.3 µs more per push.
+_Entry = tuple[Number, int, int, int, Number, frozenset[int], bool]
 
 
 class _Node:
@@ -80,20 +80,48 @@ class _Node:
         self.seen: set[int] | None = None
 
 
-# Freeing a large search (tens of thousands of nodes and suspended generators) takes up to 0.1 s. It
-# is deferred to the start of the next search, before that one's clock starts, so a search ends
-# within a few milliseconds of its time limit.
-_PARKED: list[object] = []
-# Whether the objects of the last search are frozen (see :func:`search`).
-_FROZEN: list[bool] = [False]
+class _Memory:
+    """What a finished search leaves for the next one to free, and the cyclic collector's pause.
+
+    The search allocates many small objects and no reference cycles; the collector's full passes
+    (50-130 ms on large searches) would make a run overshoot its time limit, so it is paused during
+    the search. Afterwards the objects are frozen (moved out of the collector's sight, an O(1) step)
+    until the next search releases them: otherwise the first collection after the search, typically
+    while the tree is built, would walk every one of them (a second after a 10 s search). Freeing a
+    large search (tens of thousands of nodes and suspended generators) takes up to 0.1 s, so it is
+    deferred to the start of the next search, before that one's clock starts.
+    """
+
+    def __init__(self) -> None:
+        self.parked: list[object] = []
+        self.frozen = False
+
+    def park(self, objects: object) -> None:
+        """Keep ``objects`` alive until :meth:`release` (so dropping them costs nothing now)."""
+        self.parked.append(objects)
+
+    def release(self) -> None:
+        """Free what is parked and give the frozen objects back to the collector."""
+        self.parked.clear()
+        if self.frozen:
+            gc.unfreeze()
+            self.frozen = False
+
+    def collector_paused(self) -> contextlib.AbstractContextManager[None]:
+        """The collector paused for a search; its objects frozen when it is switched back on."""
+        return collector_paused(on_resume=self.freeze)
+
+    def freeze(self) -> None:
+        gc.freeze()
+        self.frozen = True
+
+
+_MEMORY = _Memory()
 
 
 def release_search_memory() -> None:
     """Free what the last search left parked (done automatically when the next one starts)."""
-    _PARKED.clear()
-    if _FROZEN[0]:
-        gc.unfreeze()
-        _FROZEN[0] = False
+    _MEMORY.release()
 
 
 def search(
@@ -115,10 +143,9 @@ def search(
     release_search_memory()
     started = time.perf_counter()
     limits = limits or Limits()
-    space = len(actions)
 
     def finish(status: Status, message: str) -> PlanResult:
-        stats = SearchStats(time_s=time.perf_counter() - started, action_space=space)
+        stats = SearchStats(time_s=time.perf_counter() - started, action_space=len(actions))
         return PlanResult(status, config.name, goal, message=message, stats=stats)
 
     if goal.unreachable:
@@ -129,30 +156,55 @@ def search(
         if clash is not None:
             names = " and ".join(task.names(clash))
             return finish(Status.UNSOLVABLE, f"the goal asks for {names}, which cannot hold together")
-    # The search allocates many small objects and no reference cycles; the cyclic collector's full
-    # passes (50-130 ms on large searches) would make the run overshoot its time limit. Afterwards the
-    # objects are frozen (moved out of the collector's sight, an O(1) step) until the next search
-    # releases them: otherwise the first collection after the search, typically while the tree is
-    # built, would walk every one of them (a second after a 10 s search).
-    collecting = gc.isenabled()
-    gc.disable()
-    try:
+    with _MEMORY.collector_paused():
         try:
-            run = _Search(task, goal, actions, config, mutexes, hints, limits, started, extra_expansions)
+            run = _Search(task, goal, actions, config, mutexes, hints, LimitWatch(limits, started), extra_expansions)
         except TimeLimitReached as stop:
             return finish(Status.TIMEOUT, str(stop))
-        if run.heuristic is not None and math.isinf(run.heuristic(goal.ids)):
-            dead = [a for a in sorted(goal.ids) if math.isinf(run.heuristic((a,)))]
+        heuristic = run.heuristic
+        if heuristic is not None and math.isinf(heuristic(goal.ids)):
+            dead = [a for a in sorted(goal.ids) if math.isinf(heuristic((a,)))]
             names = listing(task.names(dead)) or str(goal)
             return finish(Status.UNSOLVABLE, f"{names} cannot be reached from s0 with this action space")
         result = run.run()
-        run.release()
+        _MEMORY.park(run.release())
         return result
-    finally:
-        if collecting:
-            gc.freeze()
-            _FROZEN[0] = True
-            gc.enable()
+
+
+def _owed_slots(
+    costs: StepCosts, hints: ResolvedHints | None, actions: Sequence[GroundAction]
+) -> tuple[dict[int, int], tuple[int, ...]]:
+    """For the actions of p̂ in the space (planners that follow hints only): each one's slot in the
+    owed counts, and how many times p̂ owes each at the goal."""
+    slots: dict[int, int] = {}
+    owed: list[int] = []
+    if hints is not None and costs.follows_hints:
+        in_space = {a.index for a in actions}
+        for action_id, count in sorted(hints.owed.items()):
+            if action_id in in_space:
+                slots[action_id] = len(owed)
+                owed.append(count)
+    return slots, tuple(owed)
+
+
+def _achiever_index(
+    task: GroundTask, actions: Sequence[GroundAction]
+) -> tuple[Sequence[Sequence[int]] | dict[int, list[int]], frozenset[int] | None]:
+    """The achievers of each atom, and the space's action indices if they must still be filtered.
+
+    Large spaces use the task's index (filtered by the space unless it is the whole task); pruned
+    ones a small index of their own (filtering the task's 3000-entry lists would cost more than
+    building it).
+    """
+    if len(actions) * 4 < len(task.actions):
+        own: dict[int, list[int]] = {}
+        for action in actions:
+            for atom in action.add:
+                own.setdefault(atom, []).append(action.index)
+        return own, None
+    if len(actions) == len(task.actions):
+        return task.achievers, None
+    return task.achievers, frozenset(a.index for a in actions)
 
 
 class _Search:
@@ -166,66 +218,38 @@ class _Search:
         config: SearchConfig,
         mutexes: Mutexes | None,
         hints: ResolvedHints | None,
-        limits: Limits,
-        started: float,
+        watch: LimitWatch,
         extra_expansions: int = 0,
     ) -> None:
         self.task = task
         self.goal = goal
         self.config = config
-        self.started = started
-        self.watch = LimitWatch(limits, started)
+        self.watch = watch
         self.space = len(actions)
         self.partners = mutexes.partners if mutexes is not None else None
         self.nogoods = mutexes.nogoods_by_atom if mutexes is not None and mutexes.nogoods else None
         self.s0 = task.initial_state
-
-        # Step costs: the full cost of an action, and the reduced cost while p̂ owes it on a path.
-        self.path_index: dict[int, int] = {}
-        initial_owed: list[int] = []
-        if hints is not None and config.step_cost in ("optimal-heuristic", "satisficing-heuristic"):
-            in_space = {a.index for a in actions}
-            for action_id, count in sorted(hints.owed.items()):
-                if action_id in in_space:
-                    self.path_index[action_id] = len(initial_owed)
-                    initial_owed.append(count)
-        self.initial_owed = tuple(initial_owed)
-        self.mode = config.step_cost
-        self.alpha = config.alpha
-        self.scale: Number = config.alpha if self.mode == "optimal-heuristic" and isinstance(config.alpha, int) else 1
-
+        costs = config.costs
+        self.full_cost: Callable[[GroundAction], Number] = costs.full_cost
+        self.owed_cost: Callable[[GroundAction], Number] = costs.owed_cost
+        self.path_index, self.initial_owed = _owed_slots(costs, hints, actions)
         # The heuristic estimates the same step costs (owed actions at their reduced cost). It
-        # orders the search (A*) except for BT Expansion, which stays breadth-first; for every
-        # planner it drops dead ends.
+        # orders the search (A*) unless the costs say otherwise; for every planner it drops dead ends.
         discounts = {i: float(self.owed_cost(task.actions[i])) for i in self.path_index}
-        deadline = self.watch.as_deadline()
         self.heuristic: Heuristic | None = build_heuristic(
-            config.heuristic, task, actions, goal.ids, scale=float(self.scale), discounts=discounts, deadline=deadline
-        )
-        self.astar = self.heuristic is not None and config.step_cost != "unit"
-        self.pre_landmarks = analyse_space(task, actions, deadline).pre_landmarks if self.heuristic is not None else {}
-        # The achievers of an atom: the task's index for large spaces, a small index of our own
-        # for pruned ones (filtering the task's 3000-entry lists would cost more than building it).
-        self.achievers: Sequence[Sequence[int]] | dict[int, list[int]] = task.achievers
-        if len(actions) * 4 < len(task.actions):
-            own: dict[int, list[int]] = {}
-            for action in actions:
-                for atom in action.add:
-                    own.setdefault(atom, []).append(action.index)
-            self.achievers = own
-        self.in_space: frozenset[int] | None = (
-            None
-            if len(actions) == len(task.actions) or isinstance(self.achievers, dict)
-            else frozenset(a.index for a in actions)
-        )
+            config.heuristic, task, actions, goal.ids, scale=float(costs.scale), discounts=discounts,
+            deadline=watch.as_deadline(),
+        )  # fmt: skip
+        self.astar = self.heuristic is not None and costs.orders_by_heuristic
+        self.achievers, self.in_space = _achiever_index(task, actions)
         # Achievers of each atom, built when first needed and sorted by a lower bound of how much a
         # child's priority exceeds its parent's g (see adders_of).
         self.adders: dict[int, list[tuple[Number, int]]] = {}
 
         self.nodes: dict[frozenset[int], _Node] = {}
-        self.open: list[tuple[Number, int, int, int, Number, frozenset[int], bool]] = []
+        self.open: list[_Entry] = []
         self.counter = 0
-        self.expanded_index: dict[int, list[tuple[frozenset[int], Number]]] = {}
+        self.expanded = SubsetIndex()  # the expanded conditions, valued by their g
         self.expansions: list[Expansion] = []
         self.position: dict[frozenset[int], int] = {}
         self.generated = self.pruned_subset = self.pruned_mutex = self.pruned_dead_end = 0
@@ -234,27 +258,11 @@ class _Search:
         self.explored_at_solution = 0
 
     # ----------------------------------------------------------------- helpers
-    def full_cost(self, action: GroundAction) -> Number:
-        """The step cost of an action that p̂ does not (or no longer) owe."""
-        if self.mode == "unit":
-            return 1
-        if self.mode == "optimal-heuristic":
-            return action.cost * self.scale
-        return action.cost
-
-    def owed_cost(self, action: GroundAction) -> Number:
-        """The step cost of an action that p̂ still owes: D/α (HBTP-O) or 0 (HBTP-S)."""
-        if self.mode == "satisficing-heuristic":
-            return 0
-        if isinstance(self.alpha, int):
-            return action.cost
-        return Fraction(action.cost) / Fraction(self.alpha)
-
     def adders_of(self, atom: int) -> list[tuple[Number, int]]:
         """The achievers of ``atom`` in the action space, sorted by their bound.
 
-        The bound is the step cost, plus under A* the heuristic of the preconditions (the child
-        holds them, so its priority is at least the parent's g plus the bound). Actions whose
+        The bound is the step cost, plus under A* the heuristic's bound for the preconditions (the
+        child holds them, so its priority is at least the parent's g plus the bound). Actions whose
         preconditions are a dead end are left out.
         """
         entries = self.adders.get(atom)
@@ -272,7 +280,7 @@ class _Search:
             action = actions[index]
             bound: Number = self.full_cost(action)
             if heuristic is not None:
-                pre_cost = self.pre_heuristic(action)
+                pre_cost = heuristic.precondition_bound(action)
                 if math.isinf(pre_cost):
                     continue
                 if self.astar:
@@ -282,14 +290,6 @@ class _Search:
         self.adders[atom] = entries
         return entries
 
-    def pre_heuristic(self, action: GroundAction) -> float:
-        """A lower bound of the heuristic of any condition holding ``action``'s precondition."""
-        heuristic = self.heuristic
-        assert heuristic is not None
-        if isinstance(heuristic, LandmarkSum):
-            return heuristic.of_landmarks(self.pre_landmarks[action.index])
-        return heuristic(action.pre)
-
     def priority(self, condition: frozenset[int], g: Number) -> Number:
         if self.astar and self.heuristic is not None:
             return g + self.heuristic(condition)
@@ -297,19 +297,8 @@ class _Search:
 
     def push(self, condition: frozenset[int], node: _Node, priority: Number, resume: bool) -> None:
         self.counter += 1
-        heapq.heappush(
-            self.open,
-            (priority, sum(node.owed), len(condition - self.s0), self.counter, node.g, condition, resume),
-        )
-
-    def dominated(self, condition: frozenset[int], g: Number) -> bool:
-        """Whether an expanded subset of ``condition`` was reached at a cost no higher than ``g``."""
-        index = self.expanded_index
-        for atom in condition:
-            for other, other_g in index.get(atom, ()):
-                if other_g <= g and other <= condition:
-                    return True
-        return False
+        entry: _Entry = (priority, sum(node.owed), len(condition - self.s0), self.counter, node.g, condition, resume)
+        heapq.heappush(self.open, entry)
 
     # -------------------------------------------------------------------- run
     def run(self) -> PlanResult:
@@ -320,9 +309,10 @@ class _Search:
         final: frozenset[int] | None = None
         open_list = self.open
         nodes = self.nodes
+        expanded = self.expanded
         pops = 0
         while open_list and self.stopped is None:
-            priority, _, _, _, entry_g, condition, resume = heapq.heappop(open_list)
+            priority, _owed, _unmet, _order, entry_g, condition, resume = heapq.heappop(open_list)
             pops += 1
             if pops & 255 == 0 and final is None and self.watch.timed_out():
                 self.stopped = Status.TIMEOUT
@@ -333,7 +323,7 @@ class _Search:
                 continue
             if node.closed or node.g != entry_g:
                 continue  # stale entry
-            if condition is not goal_condition and self.dominated(condition, node.g):
+            if condition is not goal_condition and expanded.has_subset(condition, node.g):
                 self.pruned_subset += 1
                 continue
             self.close(condition, node)
@@ -362,10 +352,8 @@ class _Search:
         parent_position = -1 if node.parent is None else self.position[node.parent]
         self.position[condition] = len(self.expansions)
         self.expansions.append(Expansion(condition, node.action, parent_position, node.cost))
-        index = self.expanded_index
-        key = min(condition, key=lambda a: len(index.get(a, ())), default=None)
-        if key is not None:
-            index.setdefault(key, []).append((condition, node.g))
+        if condition:  # the empty condition holds in s0: it ends the search and prunes nothing
+            self.expanded.add(condition, node.g)
 
     def start_expansion(self, condition: frozenset[int], node: _Node, priority: Number) -> None:
         """Generate the children of a newly expanded condition that fit under ``priority``.
@@ -453,13 +441,14 @@ class _Search:
         self.generated += 1
         self.push(result, new, priority, False)
 
-    def release(self) -> None:
-        """Hand the search state to :func:`release_search_memory`, so returning costs nothing."""
-        _PARKED.append((self.nodes, self.open, self.adders, self.expanded_index, self.position))
-        self.nodes, self.open, self.adders, self.expanded_index, self.position = {}, [], {}, {}, {}
+    def release(self) -> tuple[object, ...]:
+        """Hand over the search state, to be freed later (returning costs nothing then)."""
+        state = (self.nodes, self.open, self.adders, self.expanded, self.position)
+        self.nodes, self.open, self.adders, self.expanded, self.position = {}, [], {}, SubsetIndex(), {}
+        return state
 
+    # ----------------------------------------------------------------- result
     def result(self, final: frozenset[int] | None) -> PlanResult:
-        task = self.task
         stats = SearchStats(
             explored=self.explored_at_solution or len(self.expansions),
             tree_conditions=len(self.expansions),
@@ -467,10 +456,11 @@ class _Search:
             pruned_subset=self.pruned_subset,
             pruned_mutex=self.pruned_mutex,
             pruned_dead_end=self.pruned_dead_end,
-            time_s=time.perf_counter() - self.started,
+            time_s=time.perf_counter() - self.watch.started,
             action_space=self.space,
         )
         expansions = tuple(self.expansions)
+        name, goal = self.config.name, self.goal
         if final is None:
             status = self.stopped or Status.UNSOLVABLE
             message = (
@@ -478,7 +468,19 @@ class _Search:
                 if self.stopped is not None
                 else "no condition that holds in s0 can be reached (open list emptied)"
             )
-            return PlanResult(status, self.config.name, self.goal, expansions, stats=stats, message=message)
+            return PlanResult(status, name, goal, expansions, stats=stats, message=message)
+        path = self.path_to_goal(final)
+        run = execute_expansions(self.task, goal.ids, expansions)
+        if not run.succeeded:  # cannot happen: every Sequence(c, a) leads to an earlier condition
+            log.error("%s: the tree did not reach the goal from s0 (a bug)", name)
+            message = "internal error: the tree did not reach the goal when executed from s0"
+            return PlanResult(Status.ERROR, name, goal, expansions, path, stats=stats, message=message)
+        return PlanResult(
+            Status.SOLVED, name, goal, expansions, path, run.executed, run.cost, stats, final=self.position[final]
+        )
+
+    def path_to_goal(self, final: frozenset[int]) -> tuple[int, ...]:
+        """The actions from the condition ``final`` (it holds in s0) to the goal, along the parents."""
         path: list[int] = []
         current: frozenset[int] | None = final
         while current is not None:
@@ -486,29 +488,7 @@ class _Search:
             if current_node.action is not None:
                 path.append(current_node.action)
             current = current_node.parent
-        run = execute_expansions(task, self.goal.ids, expansions)
-        if not run.reached:  # cannot happen: every Sequence(c, a) leads to an earlier condition
-            log.error("%s: the tree did not reach the goal from s0 (a bug)", self.config.name)
-            return PlanResult(
-                Status.UNSOLVABLE,
-                self.config.name,
-                self.goal,
-                expansions,
-                tuple(path),
-                stats=stats,
-                message="internal error: the tree did not reach the goal when executed from s0",
-            )
-        return PlanResult(
-            Status.SOLVED,
-            self.config.name,
-            self.goal,
-            expansions,
-            tuple(path),
-            run.actions,
-            run.cost,
-            stats,
-            final=self.position[final],
-        )
+        return tuple(path)
 
 
 def _clashes(
