@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import random
 
-from hbtp.bt import Action, Condition, Fallback, Node, Sequence, tick, tree_of
-from hbtp.bt.compact import compact, compact_with_report, measure
+from hbtp.bt import Action, Condition, Fallback, Node, Sequence, size, tick, tree_of
+from hbtp.bt.compact import compact, compact_with_report
 from hbtp.bt.verify import verify
 from hbtp.datasets import load_dataset
 from hbtp.domains import Scenario
+from hbtp.llm.parse import hints_from_record
 from hbtp.logic.task import GroundTask
-from hbtp.planning import hints_from_record, plan
+from hbtp.planning import plan
 from helpers import random_task
 
 
@@ -47,8 +48,8 @@ def test_compacted_planned_trees_act_the_same_from_every_explored_state(scenario
                 compacted, report = compact_with_report(tree)
                 trees += 1
                 _same_ticks(tree, compacted, task, states)
-                assert report.before == measure(tree)
-                assert report.after == measure(compacted)
+                assert report.before == size(tree)
+                assert report.after == size(compacted)
                 assert report.after.literals <= report.before.literals
                 assert report.after.nodes + report.after.literals <= report.before.nodes + report.before.literals
                 total_before += report.before.literals

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import random
 
 import pytest
@@ -20,8 +21,9 @@ from hbtp.bt.simulate import Event, simulate
 from hbtp.datasets import load_dataset
 from hbtp.domains import Scenario
 from hbtp.errors import InputError
+from hbtp.llm.parse import hints_from_record
 from hbtp.logic.task import State
-from hbtp.planning import PlanResult, hints_from_record, plan
+from hbtp.planning import PlanResult, plan
 from hbtp.planning.heuristics import HeuristicName
 
 
@@ -98,7 +100,10 @@ def test_disturbed_states_stay_consistent(
     task = scenario.task
     assert scenario.mutexes.conflict(task.initial_state) is None
     model = event_model(task, scenario.mutexes)
-    assert event_model(task, scenario.mutexes) is model  # cached
+    assert event_model(task, scenario.mutexes) is model  # kept with the task, per mutexes
+    other = dataclasses.replace(scenario.mutexes, nogoods=(*scenario.mutexes.nogoods, frozenset({0, 1})))
+    assert event_model(task, other) is not model
+    assert event_model(task, other).mutexes is other
     kinds: dict[str, int] = {}
     for result, _ in _plans(scenario, 4):
         for index in range(10):

@@ -10,7 +10,8 @@ from pathlib import Path
 import pytest
 
 from hbtp.bt import Action, Condition, Fallback, Node, Sequence, size, tree_of
-from hbtp.bt.graphviz import find_dot, render, render_bytes, tree_to_dot
+from hbtp.bt.export import write_export
+from hbtp.bt.graphviz import find_dot, render_bytes, tree_to_dot
 from hbtp.bt.mermaid import escape_label, tree_to_mermaid
 from hbtp.domains import DomainBuilder, load_scenario
 from hbtp.errors import InputError
@@ -52,7 +53,7 @@ def test_dot_text_is_deterministic_and_complete(small: tuple[GroundTask, Node]) 
     assert dot == tree_to_dot(tree, task)
     assert dot.startswith('digraph "behavior_tree" {')
     assert dot.endswith("}\n")
-    nodes, _ = size(tree)
+    nodes = size(tree).nodes
     declared = re.findall(r"^  (n\d+) \[", dot, flags=re.MULTILINE)
     assert declared == [f"n{i}" for i in range(nodes)]
     assert len(re.findall(r"^  n\d+ -> n\d+;$", dot, flags=re.MULTILINE)) == nodes - 1
@@ -82,7 +83,7 @@ def test_svg_and_png_render(tmp_path: Path, small: tuple[GroundTask, Node]) -> N
     assert root.tag.endswith("svg")
     assert b"RightPutIn(apple,fridge)" in svg
     target = tmp_path / "out" / "tree.png"
-    render(dot, "png", target)
+    write_export(tree, task, target, "png")
     assert target.read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
     assert [p.name for p in target.parent.iterdir()] == ["tree.png"]  # no temporary file left
 
@@ -106,7 +107,7 @@ def test_missing_dot_gives_a_clear_one_line_error(
     assert "\n" not in str(error.value)
     target = tmp_path / "tree.svg"
     with pytest.raises(InputError):
-        render(tree_to_dot(tree, task), "svg", target)
+        write_export(tree, task, target)
     assert not target.exists()
 
 
@@ -123,7 +124,7 @@ def test_mermaid_flowchart(small: tuple[GroundTask, Node]) -> None:
     assert '  n1(["IsClose(fridge)<br/>IsIn(apple,fridge)"]):::condition' in lines
     assert '  n2["→"]:::sequence' in lines
     assert any(line.endswith('["Walk(apple)"]:::action') for line in lines)
-    nodes, _ = size(tree)
+    nodes = size(tree).nodes
     assert sum(1 for line in lines if re.fullmatch(r"  n\d+ --> n\d+", line)) == nodes - 1
     assert "  n0 --> n1" in lines
     assert "  n0 --> n2" in lines

@@ -8,13 +8,15 @@ import random
 import pytest
 
 from hbtp.bt import Action, Condition, Fallback, Node, NodeStatus, Sequence, tick, tree_of
-from hbtp.bt.simulate import Event, compile_tree, simulate, trace_to_jsonl
+from hbtp.bt.simulate import ConditionChecks, Event, compile_tree, condition_checks, simulate, trace_to_jsonl
 from hbtp.bt.verify import flatten
 from hbtp.datasets import load_dataset
 from hbtp.domains import Scenario
 from hbtp.errors import InputError
+from hbtp.logic.execution import Tick
 from hbtp.logic.task import GroundTask, State
 from hbtp.planning import plan
+from hbtp.planning.execution import execute_expansions
 from helpers import kitchen_builder, random_task, run_tree
 
 
@@ -67,6 +69,10 @@ def test_simulate_agrees_with_the_test_runner_on_the_scenarios(scenario: Scenari
             assert run.executed == expected.actions == result.executed
             assert run.cost == expected.cost == result.cost
             assert run.final_state == expected.state
+        # the search's own execution check is the same executor on the same branches: the same run
+        assert execute_expansions(scenario.task, result.goal.ids, result.expansions) == simulate(
+            tree_of(result, "full"), scenario.task
+        )
 
 
 def test_a_failing_tree_fails_at_once(kitchen: GroundTask) -> None:
@@ -210,3 +216,56 @@ def test_simulate_on_random_trees_matches_the_reference_runner() -> None:
         assert run.executed == expected.actions
         assert run.final_state == expected.state
         assert run.succeeded == expected.reached
+
+
+# ------------------------------------------------------------------ observers and visitors
+def test_observers_see_every_tick_before_its_action(kitchen: GroundTask) -> None:
+    result = plan(kitchen, "IsIn_milk_fridge", "obtea")
+    seen: list[Tick] = []
+    run = simulate(tree_of(result), kitchen, disturbance=_Scripted(kitchen), observers=[seen.append], trace=True)
+    assert [tick.number for tick in seen] == list(range(1, run.ticks + 1))
+    assert [tick.action for tick in seen[:-1]] == list(run.executed)
+    assert seen[-1].status is NodeStatus.SUCCESS
+    assert seen[-1].action is None
+    assert [tick.event is not None for tick in seen] == [tick == 3 for tick in range(1, run.ticks + 1)]
+    assert seen[0].state == kitchen.initial_state
+    assert [(step.tick, step.status) for step in run.trace] == [(tick.number, tick.status) for tick in seen]
+
+
+def test_the_tick_visitor_sees_every_node_ticked(kitchen: GroundTask) -> None:
+    goal = Condition(_ids(kitchen, "IsIn(milk,fridge)"))
+    walk = _branch(kitchen, "Walk(fridge)", "IsStanding(self)")
+    opened = Sequence((Condition(_ids(kitchen, "IsOpen(fridge)")), Action(0)))
+    tree = Fallback((goal, opened, walk))
+    visited: list[tuple[Node, NodeStatus]] = []
+    status, running = tick(tree, kitchen.initial_state, kitchen, lambda node, got: visited.append((node, got)))
+    assert (status, running) == (NodeStatus.RUNNING, kitchen.action("Walk(fridge)").index)
+    # children before their parent; the Action of the failed Sequence is never ticked
+    assert visited == [
+        (goal, NodeStatus.FAILURE),
+        (opened.children[0], NodeStatus.FAILURE),
+        (opened, NodeStatus.FAILURE),
+        (walk.children[0], NodeStatus.SUCCESS),
+        (walk.children[1], NodeStatus.RUNNING),
+        (walk, NodeStatus.RUNNING),
+        (tree, NodeStatus.RUNNING),
+    ]
+    counter = ConditionChecks()
+    tick(tree, kitchen.initial_state, kitchen, counter)
+    assert counter.count == 3
+
+
+def test_condition_checks_count_the_conditions_of_every_tick(kitchen: GroundTask) -> None:
+    tree = tree_of(plan(kitchen, "IsIn_milk_fridge", "obtea"))
+    assert isinstance(tree, Fallback)
+    # Fallback(goal, Sequence(c1, a1), ...): a tick checks the goal and the conditions up to the
+    # first that holds (its action's precondition holds too: c_i was regressed through a_i)
+    firsts = [tree.children[0]] + [branch.children[0] for branch in tree.children[1:] if isinstance(branch, Sequence)]
+    guards = [guard.literals for guard in firsts if isinstance(guard, Condition)]
+    assert len(guards) == len(tree.children)
+    expected = 0
+    for step in simulate(tree, kitchen, trace=True).trace:
+        state = _ids(kitchen, *step.state)
+        expected += 1 + next(i for i, guard in enumerate(guards) if guard <= state)
+    assert condition_checks(tree, kitchen) == expected
+    assert expected > len(guards)

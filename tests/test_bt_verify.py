@@ -11,8 +11,9 @@ from hbtp.bt.compact import compact
 from hbtp.bt.verify import Branch, flatten, path_text, verify
 from hbtp.datasets import load_dataset
 from hbtp.domains import Scenario
+from hbtp.llm.parse import hints_from_record
 from hbtp.logic.task import GroundTask
-from hbtp.planning import hints_from_record, plan
+from hbtp.planning import plan
 from helpers import kitchen_builder
 
 

@@ -17,7 +17,8 @@ import pytest
 from hbtp.bt import full_tree
 from hbtp.datasets import DATASET_SCENARIO, Record, dataset_names, load_dataset, validate_records
 from hbtp.domains import Scenario, load_scenario
-from hbtp.planning import Hints, Limits, PlanResult, Status, hints_from_record, plan
+from hbtp.llm.parse import hints_from_record
+from hbtp.planning import Hints, Limits, PlanResult, Status, plan
 from hbtp.planning.execution import execute_expansions
 from helpers import plan_cost, reaches, run_tree
 
@@ -73,8 +74,8 @@ def check_sound(scenario: Scenario, record: Record, result: PlanResult, where: s
     task = scenario.task
     goal = task.resolve_goal(record.goal).ids
     run = execute_expansions(task, goal, result.expansions)
-    assert run.reached, where
-    assert run.actions == result.executed, where
+    assert run.reached(goal), where
+    assert run.executed == result.executed, where
     assert run.cost == result.cost, where
     ticked = run_tree(full_tree(result.expansions), task, task.initial_state, len(result.expansions) + 1)
     assert ticked.reached, where

@@ -98,7 +98,7 @@ def test_a_tree_at_the_depth_limit_works_everywhere(
     branch = _chain(MAX_TREE_DEPTH - 2, Sequence((near, Action(open_))))
     walk_guard = task.actions[walk].pre | (task.actions[open_].pre - task.actions[walk].add)
     tree = Fallback((Condition(goal.ids), branch, Sequence((Condition(walk_guard), Action(walk)))))
-    assert size(tree)[1] == MAX_TREE_DEPTH
+    assert size(tree).depth == MAX_TREE_DEPTH
     path = tmp_path / "deep.json"
     path.write_text(tree_to_json(tree, task, scenario="robothow-small", goal=goal), encoding="utf-8")
     assert main(["run", str(path)]) == EXIT_OK
@@ -143,7 +143,7 @@ def test_subtree_fan_out_fails_fast_without_memory(robothow_small: Scenario) -> 
 
 def test_identical_subtrees_are_read_once_and_shared(robothow_small: Scenario) -> None:
     tree = tree_from_btcpp(_fan_out(3, 2), robothow_small.task)
-    assert size(tree) == (15, 4)
+    assert (size(tree).nodes, size(tree).depth) == (15, 4)
     assert isinstance(tree, Sequence)
     first, second = tree.children
     assert first is second

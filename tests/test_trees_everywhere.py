@@ -15,7 +15,8 @@ from hbtp.bt.simulate import simulate
 from hbtp.bt.verify import verify
 from hbtp.datasets import DATASET_SCENARIO, dataset_names, load_dataset, validate_records
 from hbtp.domains import load_scenario
-from hbtp.planning import PLANNERS, Limits, hints_from_record, plan
+from hbtp.llm.parse import hints_from_record
+from hbtp.planning import PLANNERS, Limits, plan
 from helpers import SymbolicEngine
 
 

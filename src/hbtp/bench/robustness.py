@@ -23,16 +23,15 @@ from hbtp.bench.report import robustness_section, write_report
 from hbtp.bench.results import ResultsFile, mean, write_json
 from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, hard_limit, run_work
 from hbtp.bt import tree_of
-from hbtp.bt.compact import measure
 from hbtp.bt.disturb import perturbation_stats
-from hbtp.bt.nodes import Node, tick
-from hbtp.bt.simulate import simulate
+from hbtp.bt.nodes import Node, size
+from hbtp.bt.simulate import condition_checks
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
 from hbtp.domains import Scenario, load_scenario
 from hbtp.errors import InputError
-from hbtp.logic.task import GroundTask
-from hbtp.planning import PLANNERS, Limits, PlanResult, hints_from_record, plan
+from hbtp.llm.parse import hints_from_record
+from hbtp.planning import PLANNERS, Limits, PlanResult, plan
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
 
 log = logging.getLogger(__name__)
@@ -96,90 +95,70 @@ def plan_record(
     return result, "obtea/full"
 
 
+@dataclass(frozen=True)
+class RobustnessConfig:
+    """What to run: ``planner`` plans in the pruned space with ``heuristic`` (default HBTP-S with the
+    landmark heuristic), exploring ``robust`` more conditions after each solution (``hbtp plan
+    --robust``); each tree runs ``runs`` times per probability of ``p_values`` for at most
+    ``max_ticks`` ticks; ``limit`` keeps the first tasks of each test set."""
+
+    p_values: tuple[float, ...] = (0.1, 0.2)
+    runs: int = 20
+    seed: int = 0
+    scenarios: tuple[str, ...] = SCENARIOS
+    limit: int | None = None
+    max_ticks: int = MAX_TICKS
+    planner: str = "hbtp-s"
+    heuristic: HeuristicName = "lm"
+    robust: int = 0
+
+    def __post_init__(self) -> None:
+        unknown = [s for s in self.scenarios if s not in SCENARIOS]
+        if unknown or not self.scenarios:
+            raise InputError(
+                f"unknown scenario(s) {', '.join(unknown) or '(none)'}; choose from {', '.join(SCENARIOS)}"
+            )
+        if self.runs < 1:
+            raise InputError(f"runs must be at least 1, not {self.runs}")
+        if self.planner not in PLANNERS:
+            raise InputError(f"unknown planner {self.planner!r}; choose one of: {', '.join(PLANNERS)}")
+        if self.heuristic not in HEURISTICS:
+            raise InputError(f"unknown heuristic {self.heuristic!r}; choose one of: {', '.join(HEURISTICS)}")
+        object.__setattr__(self, "p_values", tuple(float(p) for p in self.p_values))
+        object.__setattr__(self, "scenarios", tuple(self.scenarios))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "p_values": list(self.p_values),
+            "runs": self.runs,
+            "seed": self.seed,
+            "max_ticks": self.max_ticks,
+            "tasks_per_scenario": self.limit,
+            "scenarios": list(self.scenarios),
+            "planner": self.planner,
+            "heuristic": self.heuristic,
+            "robust": self.robust,
+        }
+
+
 def run_robustness(
-    out_dir: Path | str,
-    p_values: Sequence[float] = (0.1, 0.2),
-    runs: int = 20,
-    seed: int = 0,
-    scenarios: Sequence[str] = SCENARIOS,
-    limit: int | None = None,
-    execution: Execution = DEFAULT_EXECUTION,
-    max_ticks: int = MAX_TICKS,
-    planner: str = "hbtp-s",
-    heuristic: HeuristicName = "lm",
-    robust: int = 0,
+    config: RobustnessConfig, out_dir: Path | str, execution: Execution = DEFAULT_EXECUTION
 ) -> dict[str, Any]:
-    """Run (or resume) the benchmark into ``out_dir``; returns the summary (also ``summary.json``).
-
-    ``robust`` explores that many more conditions after each solution (``hbtp plan --robust``).
-
-    ``planner`` plans in the pruned space with ``heuristic`` (default HBTP-S with the landmark
-    heuristic); ``limit``
-    keeps the first tasks of each test set; ``max_ticks`` bounds every run.
-    """
+    """Run (or resume) the benchmark into ``out_dir``; returns the summary (also ``summary.json``)."""
     out = Path(out_dir)
-    unknown = [s for s in scenarios if s not in SCENARIOS]
-    if unknown or not scenarios:
-        raise InputError(f"unknown scenario(s) {', '.join(unknown) or '(none)'}; choose from {', '.join(SCENARIOS)}")
-    if runs < 1:
-        raise InputError(f"runs must be at least 1, not {runs}")
-    if planner not in PLANNERS:
-        raise InputError(f"unknown planner {planner!r}; choose one of: {', '.join(PLANNERS)}")
-    if heuristic not in HEURISTICS:
-        raise InputError(f"unknown heuristic {heuristic!r}; choose one of: {', '.join(HEURISTICS)}")
-    p_values = tuple(float(p) for p in p_values)
     started = time.perf_counter()
     results = ResultsFile(out / "results.jsonl", KEY)
     work = [
-        Work(
-            (name, record.id),
-            RobustnessRun(name, record, p_values, runs, seed, max_ticks, planner, heuristic, robust),
-            tuple(
-                {
-                    "scenario": name,
-                    "dataset": dataset_of(name),
-                    "task": record.id,
-                    "goal": record.goal.strip(),
-                    "planner": planner,
-                    "heuristic": heuristic,
-                    "robust": robust,
-                    "p": p,
-                    "tree": kind,
-                    "runs": runs,
-                    "seed": seed,
-                    "max_ticks": max_ticks,
-                    "planned_with": "killed",
-                    "explored": None,
-                    "nodes": None,
-                    "success_rate": 0.0,
-                    "successes": 0,
-                    "mean_extra_ticks": None,
-                    "mean_extra_cost": None,
-                }
-                for p in p_values
-                for kind in TREES
-            ),
-            stage=name,
-        )
-        for name in scenarios
-        for record in load_dataset(dataset_of(name))[:limit]
+        Work((name, record.id), RobustnessRun(name, record, config), _killed_rows(name, record, config), stage=name)
+        for name in config.scenarios
+        for record in load_dataset(dataset_of(name))[: config.limit]
     ]
     keys = [results.key(row) for item in work for row in item.rows]
     run_work(
         run_one, work, results, execution, kill_after=hard_limit(TIME_LIMIT, slack=120.0), description="robustness"
     )
-    summary = summarise(list(results.ordered(keys)), scenarios, p_values)
-    summary["config"] = {
-        "p_values": list(p_values),
-        "runs": runs,
-        "seed": seed,
-        "max_ticks": max_ticks,
-        "tasks_per_scenario": limit,
-        "scenarios": list(scenarios),
-        "planner": planner,
-        "heuristic": heuristic,
-        "robust": robust,
-    }
+    summary = summarise(list(results.ordered(keys)), config.scenarios, config.p_values)
+    summary["config"] = config.to_dict()
     summary["elapsed_s"] = round(time.perf_counter() - started, 3)
     write_json(out / "summary.json", summary)
     plot_robustness(summary, out / "robustness.png")
@@ -193,88 +172,101 @@ class RobustnessRun:
 
     scenario: str
     record: Record
-    p_values: tuple[float, ...]
-    runs: int
-    seed: int
-    max_ticks: int
-    planner: str
-    heuristic: HeuristicName
-    robust: int
+    config: RobustnessConfig
+
+
+def _task_fields(scenario: str, record: Record, config: RobustnessConfig) -> dict[str, Any]:
+    """The fields that name a task's rows, first in every row."""
+    return {
+        "scenario": scenario,
+        "dataset": dataset_of(scenario),
+        "task": record.id,
+        "goal": record.goal.strip(),
+        "planner": config.planner,
+        "heuristic": config.heuristic,
+        "robust": config.robust,
+    }
+
+
+_NOT_RUN = {"success_rate": 0.0, "successes": 0, "mean_extra_ticks": None, "mean_extra_cost": None}
+
+
+def _killed_rows(scenario: str, record: Record, config: RobustnessConfig) -> tuple[dict[str, Any], ...]:
+    """The rows of a task whose worker was killed: one per (p, tree)."""
+    fields = _task_fields(scenario, record, config)
+    return tuple(
+        {
+            **fields,
+            "p": p,
+            "tree": kind,
+            "runs": config.runs,
+            "seed": config.seed,
+            "max_ticks": config.max_ticks,
+            "planned_with": "killed",
+            "explored": None,
+            "nodes": None,
+            **_NOT_RUN,
+        }
+        for p in config.p_values
+        for kind in TREES
+    )
 
 
 def run_one(run: RobustnessRun) -> list[dict[str, Any]]:
     """The rows of one task: one per (p, tree)."""
-    return _run_task(
-        load_scenario(run.scenario), run.record, run.p_values, run.runs, run.seed, run.max_ticks, run.planner,
-        run.heuristic, run.robust,
-    )  # fmt: skip
+    return _run_task(load_scenario(run.scenario), run.record, run.config)
 
 
-def _run_task(
-    scenario: Scenario,
-    record: Record,
-    p_values: Sequence[float],
-    runs: int,
-    seed: int,
-    max_ticks: int,
-    planner: str,
-    heuristic: HeuristicName,
-    robust: int = 0,
-) -> list[dict[str, Any]]:
-    task = scenario.task
+def _run_task(scenario: Scenario, record: Record, config: RobustnessConfig) -> list[dict[str, Any]]:
     started = time.perf_counter()
-    result, how = plan_record(scenario, record, planner=planner, heuristic=heuristic, robust=robust)
-    plan_time = round(time.perf_counter() - started, 6)
-    goal = task.resolve_goal(record.goal)
+    result, how = plan_record(
+        scenario, record, planner=config.planner, heuristic=config.heuristic, robust=config.robust
+    )
     base: dict[str, Any] = {
-        "scenario": scenario.name,
-        "dataset": dataset_of(scenario.name),
-        "task": record.id,
-        "goal": record.goal.strip(),
-        "planner": planner,
-        "heuristic": heuristic,
-        "robust": robust,
+        **_task_fields(scenario.name, record, config),
         "planned_with": how,
         "solved": result.solved,
         "explored": result.stats.explored,
         "plan_cost": result.cost,
-        "plan_time_s": plan_time,
-        "runs": runs,
-        "seed": seed,
-        "max_ticks": max_ticks,
+        "plan_time_s": round(time.perf_counter() - started, 6),
+        "runs": config.runs,
+        "seed": config.seed,
+        "max_ticks": config.max_ticks,
     }
+    goal = scenario.task.resolve_goal(record.goal)
     rows: list[dict[str, Any]] = []
     for kind in TREES:
         tree = tree_of(result, kind) if result.solved else None
-        size = measure(tree) if tree is not None else None
-        checks = condition_checks(tree, task, max_ticks) if tree is not None else None
-        for p in p_values:
-            row = {**base, "p": p, "tree": kind, "nodes": size.nodes if size else None, "condition_checks": checks}
-            if tree is None:
-                row.update({"success_rate": 0.0, "successes": 0, "mean_extra_ticks": None, "mean_extra_cost": None})
-            else:
-                stats = perturbation_stats(
-                    tree,
-                    task,
-                    goal.ids,
-                    scenario.mutexes,
-                    p,
-                    runs,
-                    task_seed(seed, scenario.name, record.id),
-                    max_ticks,
-                )
-                stats.pop("p")
-                stats.pop("seed")
-                row.update(stats)
-            rows.append(row)
+        rows += _tree_rows(scenario, goal.ids, kind, tree, config, base)
     return rows
 
 
-def condition_checks(tree: Node, task: GroundTask, max_ticks: int) -> int:
-    """Condition nodes ticked in the undisturbed run from s0 (BTPG's tick count)."""
-    checks = [0]
-    simulate(tree, task, max_ticks=max_ticks, ticker=lambda state: tick(tree, state, task, checks))
-    return checks[0]
+def _tree_rows(
+    scenario: Scenario,
+    goal: frozenset[int],
+    kind: str,
+    tree: Node | None,
+    config: RobustnessConfig,
+    base: dict[str, Any],
+) -> list[dict[str, Any]]:
+    """One row per p for one tree (``None`` for a task not solved): its size, its condition checks
+    undisturbed, and its figures under perturbations (:func:`hbtp.bt.disturb.perturbation_stats`)."""
+    task = scenario.task
+    fields = {
+        "nodes": size(tree).nodes if tree is not None else None,
+        "condition_checks": condition_checks(tree, task, max_ticks=config.max_ticks) if tree is not None else None,
+    }
+    seed = task_seed(config.seed, scenario.name, base["task"])
+    rows: list[dict[str, Any]] = []
+    for p in config.p_values:
+        row = {**base, "p": p, "tree": kind, **fields}
+        if tree is None:
+            row.update(_NOT_RUN)
+        else:
+            stats = perturbation_stats(tree, task, goal, scenario.mutexes, p, config.runs, seed, config.max_ticks)
+            row.update({k: v for k, v in stats.items() if k not in ("p", "seed")})
+        rows.append(row)
+    return rows
 
 
 def summarise(rows: Sequence[dict[str, Any]], scenarios: Sequence[str], p_values: Sequence[float]) -> dict[str, Any]:
@@ -332,4 +324,4 @@ def _counts(rows: Sequence[dict[str, Any]], field: str) -> dict[str, int]:
     return dict(sorted(counts.items()))
 
 
-__all__ = ["SCENARIOS", "dataset_of", "plan_record", "run_robustness", "summarise", "task_seed"]
+__all__ = ["SCENARIOS", "RobustnessConfig", "dataset_of", "plan_record", "run_robustness", "summarise", "task_seed"]

@@ -36,22 +36,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from hbtp.bt.nodes import Action, Condition, Fallback, Node
+from hbtp.bt.nodes import Action, Condition, Fallback, Node, TreeSize, size
 from hbtp.bt.nodes import Sequence as SequenceNode
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True, slots=True)
-class TreeSize:
-    """Nodes, depth (a leaf has depth 1) and literal occurrences in Conditions."""
-
-    nodes: int
-    depth: int
-    literals: int
-
-    def to_dict(self) -> dict[str, int]:
-        return {"nodes": self.nodes, "depth": self.depth, "literals": self.literals}
 
 
 @dataclass(frozen=True, slots=True)
@@ -71,20 +59,6 @@ class CompactionReport:
         )
 
 
-def measure(node: Node) -> TreeSize:
-    """The :class:`TreeSize` of a tree."""
-    if isinstance(node, Condition):
-        return TreeSize(1, 1, len(node.literals))
-    if isinstance(node, Action):
-        return TreeSize(1, 1, 0)
-    sizes = [measure(child) for child in node.children]
-    return TreeSize(
-        1 + sum(s.nodes for s in sizes),
-        1 + max((s.depth for s in sizes), default=0),
-        sum(s.literals for s in sizes),
-    )
-
-
 def compact(tree: Node) -> Node:
     """A tree that ticks exactly like ``tree`` in every state, with shared literals factored."""
     return _Compactor().node(tree)
@@ -94,7 +68,7 @@ def compact_with_report(tree: Node) -> tuple[Node, CompactionReport]:
     """:func:`compact` and the sizes before and after."""
     compactor = _Compactor()
     result = compactor.node(tree)
-    report = CompactionReport(measure(tree), measure(result), compactor.merges)
+    report = CompactionReport(size(tree), size(result), compactor.merges)
     log.debug("compact: %s", report)
     return result, report
 
@@ -197,18 +171,18 @@ class _Compactor:
         prefix: dict[int, list[int]] = {}
         for i, guard in enumerate(guards):
             prefix.setdefault(len(guard), []).append(i)
-        cumulative = {size: [0] for size in prefix}
-        for size, positions in prefix.items():
+        cumulative = {length: [0] for length in prefix}
+        for length, positions in prefix.items():
             for position in positions:
-                cumulative[size].append(cumulative[size][-1] + weight[position])
+                cumulative[length].append(cumulative[length][-1] + weight[position])
 
-        def dropped(size: int, start: int, stop: int) -> int:
-            positions = prefix.get(size)
+        def dropped(length: int, start: int, stop: int) -> int:
+            positions = prefix.get(length)
             if not positions:
                 return 0
             lo = bisect.bisect_left(positions, start)
             hi = bisect.bisect_right(positions, stop)
-            return cumulative[size][hi] - cumulative[size][lo]
+            return cumulative[length][hi] - cumulative[length][lo]
 
         best = [0] * (n + 1)
         choice: list[tuple[int, frozenset[int]] | None] = [None] * (n + 1)
@@ -238,4 +212,4 @@ class _Compactor:
         return result
 
 
-__all__ = ["CompactionReport", "TreeSize", "compact", "compact_with_report", "measure"]
+__all__ = ["CompactionReport", "compact", "compact_with_report"]

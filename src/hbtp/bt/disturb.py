@@ -29,15 +29,15 @@ from __future__ import annotations
 import logging
 import random
 import statistics
-import weakref
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 from hbtp.bt.nodes import Node
-from hbtp.bt.simulate import DEFAULT_MAX_TICKS, Event, Run, compile_tree, simulate
+from hbtp.bt.simulate import DEFAULT_MAX_TICKS, compile_tree, simulate
 from hbtp.domains.mutex import Mutexes
 from hbtp.errors import InputError
+from hbtp.logic.execution import Event, Run
 from hbtp.logic.task import GroundTask, State
 
 log = logging.getLogger(__name__)
@@ -109,25 +109,13 @@ def exactly_one_groups(task: GroundTask, mutexes: Mutexes) -> tuple[frozenset[in
     return tuple(result)
 
 
-# Keyed by identity (tasks are large and not hashable); the weak reference tells a reused id apart.
-_MODELS: dict[tuple[int, int], tuple[weakref.ref[GroundTask], EventModel]] = {}
-
-
 def event_model(task: GroundTask, mutexes: Mutexes) -> EventModel:
-    """The :class:`EventModel` of a task and its mutexes, cached for the last few pairs."""
-    key = (id(task), id(mutexes))
-    cached = _MODELS.get(key)
-    if cached is not None and cached[0]() is task and cached[1].mutexes is mutexes:
-        return cached[1]
-    model = EventModel.build(task, mutexes)
-    if len(_MODELS) >= 8:
-        _MODELS.pop(next(iter(_MODELS)))
-    _MODELS[key] = (weakref.ref(task), model)
-    return model
+    """The :class:`EventModel` of a task and its mutexes, kept with the task (:meth:`GroundTask.derived`)."""
+    return task.derived((EventModel, mutexes), lambda: EventModel.build(task, mutexes))
 
 
 class RandomDisturbance:
-    """A :class:`hbtp.bt.simulate.Disturbance`: with probability ``p`` per tick, a random event."""
+    """A :class:`hbtp.logic.execution.Disturbance`: with probability ``p`` per tick, a random event."""
 
     def __init__(
         self,
@@ -250,12 +238,12 @@ def disturbed_runs(
     if runs < 0:
         raise InputError(f"the number of runs must not be negative, not {runs}")
     model = event_model(task, mutexes)
-    ticker = compile_tree(tree, task)
+    policy = compile_tree(tree, task)
     results = []
     for index in range(runs):
         disturbance = RandomDisturbance(model, p, random.Random(run_seed(seed, index)), kinds=kinds)
         results.append(
-            simulate(tree, task, state, max_ticks=max_ticks, disturbance=disturbance, trace=trace, ticker=ticker)
+            simulate(tree, task, state, max_ticks=max_ticks, disturbance=disturbance, trace=trace, policy=policy)
         )
     return results
 

@@ -7,19 +7,13 @@ marked ``→``, a condition an ellipse listing its literals, an action a filled 
 
 from __future__ import annotations
 
-import logging
-import os
 import shutil
 import subprocess
-from pathlib import Path
 from typing import Literal
 
 from hbtp.bt.nodes import Action, Condition, Fallback, Node
 from hbtp.errors import InputError
-from hbtp.files import write_atomically
 from hbtp.logic.task import GroundTask
-
-logger = logging.getLogger(__name__)
 
 ImageFormat = Literal["svg", "png"]
 IMAGE_FORMATS: tuple[ImageFormat, ...] = ("svg", "png")
@@ -106,11 +100,3 @@ def render_bytes(dot_text: str, fmt: ImageFormat) -> bytes:
         message = done.stderr.decode("utf-8", "replace").strip().splitlines()
         raise InputError(f"dot failed (exit {done.returncode}): {message[0] if message else 'no output'}")
     return done.stdout
-
-
-def render(dot_text: str, fmt: ImageFormat, out_path: str | os.PathLike[str]) -> None:
-    """Render DOT text to an SVG or PNG file (written atomically: nothing is written on error)."""
-
-    data = render_bytes(dot_text, fmt)
-    write_atomically(Path(out_path), data)
-    logger.info("wrote %s (%d bytes)", out_path, len(data))

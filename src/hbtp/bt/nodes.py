@@ -8,10 +8,10 @@ FAILURE. Node literals and actions are ids of one grounded task.
 
 from __future__ import annotations
 
-import enum
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
+from hbtp.logic.execution import NodeStatus
 from hbtp.logic.task import GroundTask, State
 
 #: The deepest tree hbtp reads from a file (a single leaf has depth 1). Ticking, verifying and
@@ -23,12 +23,6 @@ MAX_TREE_DEPTH = 90
 #: The most nodes hbtp reads from a BehaviorTree.CPP file once its ``<SubTree>`` references are
 #: expanded (identical subtrees are shared in memory, but ticking and exporting visit every copy).
 MAX_TREE_NODES = 1_000_000
-
-
-class NodeStatus(enum.Enum):
-    SUCCESS = "success"
-    FAILURE = "failure"
-    RUNNING = "running"
 
 
 @dataclass(frozen=True, slots=True)
@@ -58,25 +52,31 @@ class Fallback:
 Node = Condition | Action | Sequence | Fallback
 
 
-def tick(node: Node, state: State, task: GroundTask, checks: list[int] | None = None) -> tuple[NodeStatus, int | None]:
+#: Called with every node a tick visits and the status it returned, children before their parent
+#: (like py_trees' visitors); :class:`hbtp.bt.simulate.ConditionChecks` counts condition checks.
+Visitor = Callable[[Node, NodeStatus], None]
+
+
+def tick(node: Node, state: State, task: GroundTask, visitor: Visitor | None = None) -> tuple[NodeStatus, int | None]:
     """Tick ``node`` in ``state``: the status and, when RUNNING, the action to apply.
 
-    ``checks``, if given, has its first item increased by every condition node ticked (the tick
-    count BTPG reports)."""
+    ``visitor``, if given, is called with every node ticked and its status."""
+    running: int | None = None
     if isinstance(node, Condition):
-        if checks is not None:
-            checks[0] += 1
-        return (NodeStatus.SUCCESS if node.literals <= state else NodeStatus.FAILURE), None
-    if isinstance(node, Action):
-        if task.actions[node.action].pre <= state:
-            return NodeStatus.RUNNING, node.action
-        return NodeStatus.FAILURE, None
-    stop = NodeStatus.SUCCESS if isinstance(node, Sequence) else NodeStatus.FAILURE
-    for child in node.children:
-        status, running = tick(child, state, task, checks)
-        if status is not stop:
-            return status, running
-    return stop, None
+        status = NodeStatus.SUCCESS if node.literals <= state else NodeStatus.FAILURE
+    elif isinstance(node, Action):
+        status = NodeStatus.RUNNING if task.actions[node.action].pre <= state else NodeStatus.FAILURE
+        running = node.action if status is NodeStatus.RUNNING else None
+    else:
+        status = NodeStatus.SUCCESS if isinstance(node, Sequence) else NodeStatus.FAILURE
+        for child in node.children:
+            child_status, running = tick(child, state, task, visitor)
+            if child_status is not status:
+                status = child_status
+                break
+    if visitor is not None:
+        visitor(node, status)
+    return status, running
 
 
 def walk(node: Node) -> Iterator[Node]:
@@ -87,9 +87,44 @@ def walk(node: Node) -> Iterator[Node]:
             yield from walk(child)
 
 
-def size(node: Node) -> tuple[int, int]:
-    """(number of nodes, depth) of a tree; a single leaf has depth 1."""
-    if isinstance(node, Condition | Action):
-        return 1, 1
-    counts = [size(child) for child in node.children]
-    return 1 + sum(c for c, _ in counts), 1 + max((d for _, d in counts), default=0)
+@dataclass(frozen=True, slots=True)
+class TreeSize:
+    """Nodes, depth (a leaf has depth 1) and literal occurrences in Conditions."""
+
+    nodes: int
+    depth: int
+    literals: int
+
+    def to_dict(self) -> dict[str, int]:
+        return {"nodes": self.nodes, "depth": self.depth, "literals": self.literals}
+
+
+def size(node: Node) -> TreeSize:
+    """The :class:`TreeSize` of a tree."""
+    if isinstance(node, Condition):
+        return TreeSize(1, 1, len(node.literals))
+    if isinstance(node, Action):
+        return TreeSize(1, 1, 0)
+    sizes = [size(child) for child in node.children]
+    return TreeSize(
+        1 + sum(s.nodes for s in sizes),
+        1 + max((s.depth for s in sizes), default=0),
+        sum(s.literals for s in sizes),
+    )
+
+
+__all__ = [
+    "MAX_TREE_DEPTH",
+    "MAX_TREE_NODES",
+    "Action",
+    "Condition",
+    "Fallback",
+    "Node",
+    "NodeStatus",
+    "Sequence",
+    "TreeSize",
+    "Visitor",
+    "size",
+    "tick",
+    "walk",
+]

@@ -7,9 +7,10 @@ from typing import cast
 
 import click
 
-from hbtp.bench.robustness import MAX_TICKS, SCENARIOS, run_robustness
+from hbtp.bench.robustness import MAX_TICKS, SCENARIOS, RobustnessConfig, run_robustness
 from hbtp.bench.runner import Execution
-from hbtp.cli.options import comma_choices, comma_numbers, execution_options
+from hbtp.cli.bench_commands import out_dir_option
+from hbtp.cli.options import comma_choices, comma_numbers, execution_options, option_group
 from hbtp.cli.run_command import exit_codes
 from hbtp.planning import PLANNERS
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
@@ -21,38 +22,7 @@ def _figure(value: float | None, percent: bool = False) -> str:
     return f"{100 * value:.1f}%" if percent else f"{value:+.2f}"
 
 
-@click.command("robustness")
-@click.option(
-    "-o",
-    "--out",
-    "out_dir",
-    required=True,
-    type=click.Path(file_okay=False),
-    help="Folder for results.jsonl and summary.json.",
-)
-@click.option("--p", "p_text", default="0.1,0.2", show_default=True, help="Comma-separated probabilities per tick.")
-@click.option("--runs", type=int, default=20, show_default=True, help="Perturbed runs per task, tree and p.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the random events.")
-@click.option(
-    "--scenarios", "scenario_text", default=",".join(SCENARIOS), show_default=True, help="Comma-separated scenarios."
-)
-@click.option(
-    "--planner", type=click.Choice(list(PLANNERS)), default="hbtp-s", show_default=True, help="Planner of the trees."
-)
-@click.option(
-    "--heuristic", type=click.Choice(list(HEURISTICS)), default="lm", show_default=True, help="LLM-free heuristic."
-)
-@click.option(
-    "--max-ticks", type=int, default=MAX_TICKS, show_default=True, help="Ticks per run before it counts as failed."
-)
-@click.option(
-    "--robust", type=click.IntRange(0), default=0, show_default=True, help="Extra expansions after each solution."
-)
-@click.option("--limit", type=int, help="Only the first N tasks of each test set.")
-@execution_options
-@exit_codes
-def robustness(
-    out_dir: str,
+def _config(
     p_text: str,
     runs: int,
     seed: int,
@@ -62,27 +32,67 @@ def robustness(
     max_ticks: int,
     robust: int,
     limit: int | None,
-    execution: Execution,
-) -> int:
-    """Full tree vs path-only tree on the Table II test sets, with random external events."""
+) -> RobustnessConfig:
     chosen = comma_choices(scenario_text, SCENARIOS, "--scenarios", "scenario")
     if runs < 1:
         raise click.BadParameter("must be at least 1", param_hint="--runs")
     if max_ticks < 1:
         raise click.BadParameter("must be at least 1", param_hint="--max-ticks")
-    summary = run_robustness(
-        Path(out_dir),
+    return RobustnessConfig(
         p_values=comma_numbers(p_text, "--p"),
         runs=runs,
         seed=seed,
         scenarios=chosen,
         limit=limit,
-        execution=execution,
         max_ticks=max_ticks,
-        robust=robust,
         planner=planner,
         heuristic=cast(HeuristicName, heuristic),
+        robust=robust,
     )
+
+
+#: What to run, handed to the command as one ``config: RobustnessConfig`` argument.
+robustness_options = option_group(
+    "config",
+    _config,
+    click.option("--p", "p_text", default="0.1,0.2", show_default=True, help="Comma-separated probabilities per tick."),
+    click.option("--runs", type=int, default=20, show_default=True, help="Perturbed runs per task, tree and p."),
+    click.option("--seed", type=int, default=0, show_default=True, help="Seed of the random events."),
+    click.option(
+        "--scenarios",
+        "scenario_text",
+        default=",".join(SCENARIOS),
+        show_default=True,
+        help="Comma-separated scenarios.",
+    ),
+    click.option(
+        "--planner",
+        type=click.Choice(list(PLANNERS)),
+        default="hbtp-s",
+        show_default=True,
+        help="Planner of the trees.",
+    ),
+    click.option(
+        "--heuristic", type=click.Choice(list(HEURISTICS)), default="lm", show_default=True, help="LLM-free heuristic."
+    ),
+    click.option(
+        "--max-ticks", type=int, default=MAX_TICKS, show_default=True, help="Ticks per run before it counts as failed."
+    ),
+    click.option(
+        "--robust", type=click.IntRange(0), default=0, show_default=True, help="Extra expansions after each solution."
+    ),
+    click.option("--limit", type=int, help="Only the first N tasks of each test set."),
+)
+
+
+@click.command("robustness")
+@out_dir_option
+@robustness_options
+@execution_options
+@exit_codes
+def robustness(out_dir: str, config: RobustnessConfig, execution: Execution) -> int:
+    """Full tree vs path-only tree on the Table II test sets, with random external events."""
+    summary = run_robustness(config, Path(out_dir), execution)
     click.echo(
         f"{'scenario':15} {'p':>4} {'tree':5} {'success':>8} {'extra ticks':>12} {'extra cost':>11} "
         f"{'nodes':>7}  full>path  path>full"

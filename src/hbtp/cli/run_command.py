@@ -27,6 +27,7 @@ from hbtp.cli.exit_codes import CommandError, ExitCode, command_error
 from hbtp.cli.options import ScenarioSource, echo_json, scenario_options, write_files_atomically
 from hbtp.cli.tree_input import load_tree_input
 from hbtp.errors import HbtpError, InputError
+from hbtp.logic.task import GroundTask
 
 log = logging.getLogger(__name__)
 
@@ -126,6 +127,48 @@ def run_command(
     Exit code 0 when the goal was reached (in every run), 1 when not, 2 on bad input. Without a goal
     (none given, none in the file) a run succeeds when the root returns SUCCESS.
     """
+    _check_options(perturb, runs, max_ticks)
+    read = load_tree_input(tree_file, source, goal_option)
+    task = read.scenario.task
+    goal_ids = read.goal.ids if read.goal is not None else frozenset()
+    base = simulate(read.tree, task, max_ticks=max_ticks, trace=trace_file is not None and perturb == 0)
+    header: dict[str, Any] = {
+        "tree": tree_file,
+        "scenario": read.scenario.name,
+        "goal": goal_text(read.goal) if read.goal is not None else None,
+    }
+    if perturb == 0:
+        reached = base.reached(goal_ids)
+        _write_traces(trace_file, [base], task, numbered=False)
+        if as_json:
+            echo_json({**header, "reached": reached, **base.to_dict(task)})
+        else:
+            click.echo(_describe_run(base, reached))
+            click.echo("executes: " + abbreviate_steps([task.actions[i].name for i in base.executed]))
+        return EXIT_OK if reached else EXIT_FAILED
+    results = disturbed_runs(
+        read.tree, task, read.scenario.mutexes, perturb, runs, seed, max_ticks=max_ticks, trace=trace_file is not None
+    )
+    stats = summarise_runs(base, results, goal_ids)
+    _write_traces(trace_file, results, task, numbered=True)
+    if as_json:
+        echo_json(
+            {
+                **header,
+                "p": perturb,
+                "seed": seed,
+                "reached": stats["successes"] == len(results),
+                **stats,
+                "base": base.to_dict(task),
+                "results": [{"reached": r.reached(goal_ids), **r.to_dict(task)} for r in results],
+            }
+        )
+    else:
+        _echo_disturbed(stats, base.reached(goal_ids), base, perturb, seed)
+    return EXIT_OK if stats["successes"] == len(results) else EXIT_FAILED
+
+
+def _check_options(perturb: float, runs: int, max_ticks: int) -> None:
     try:
         check_probability(perturb)
     except InputError as error:
@@ -134,56 +177,26 @@ def run_command(
         raise click.BadParameter("must be at least 1", param_hint="--runs")
     if max_ticks < 1:
         raise click.BadParameter("must be at least 1", param_hint="--max-ticks")
-    read = load_tree_input(tree_file, source, goal_option)
-    loaded, tree, goal = read.scenario, read.tree, read.goal
-    task = loaded.task
-    goal_ids = goal.ids if goal is not None else frozenset()
-    trace = trace_file is not None
-    base = simulate(tree, task, max_ticks=max_ticks, trace=trace and perturb == 0)
-    header: dict[str, Any] = {
-        "tree": tree_file,
-        "scenario": loaded.name,
-        "goal": goal_text(goal) if goal is not None else None,
-    }
-    if perturb == 0:
-        reached = base.reached(goal_ids)
-        if trace_file:
-            write_files_atomically({Path(trace_file): trace_to_jsonl(base, task)})
-        if as_json:
-            echo_json({**header, "reached": reached, **base.to_dict(task)})
-        else:
-            click.echo(_describe_run(base, reached))
-            click.echo("executes: " + abbreviate_steps([task.actions[i].name for i in base.executed]))
-        return EXIT_OK if reached else EXIT_FAILED
-    results = disturbed_runs(tree, task, loaded.mutexes, perturb, runs, seed, max_ticks=max_ticks, trace=trace)
-    stats = summarise_runs(base, results, goal_ids)
-    every = stats["successes"] == len(results)
+
+
+def _write_traces(trace_file: str | None, runs: Sequence[Run], task: GroundTask, *, numbered: bool) -> None:
+    """The runs' traces as JSON lines in ``trace_file`` (if given), each line with its run's
+    number when ``numbered``."""
     if trace_file:
-        text = "".join(trace_to_jsonl(run, task, run_index=i) for i, run in enumerate(results))
+        text = "".join(trace_to_jsonl(run, task, run_index=i if numbered else None) for i, run in enumerate(runs))
         write_files_atomically({Path(trace_file): text})
-    if as_json:
-        echo_json(
-            {
-                **header,
-                "p": perturb,
-                "seed": seed,
-                "reached": every,
-                **stats,
-                "base": base.to_dict(task),
-                "results": [{"reached": r.reached(goal_ids), **r.to_dict(task)} for r in results],
-            }
-        )
-    else:
-        click.echo(
-            f"{stats['successes']}/{len(results)} perturbed run(s) reached the goal (p={perturb}, seed {seed}); "
-            f"{_number(stats['mean_events'])} event(s) per run"
-        )
-        click.echo(
-            f"successful runs: mean ticks {_number(stats['mean_ticks'])} ({_number(stats['mean_extra_ticks'], True)}), "
-            f"mean cost {_number(stats['mean_cost'])} ({_number(stats['mean_extra_cost'], True)})"
-        )
-        click.echo(f"undisturbed: {_describe_run(base, base.reached(goal_ids))}")
-    return EXIT_OK if every else EXIT_FAILED
+
+
+def _echo_disturbed(stats: dict[str, Any], base_reached: bool, base: Run, perturb: float, seed: int) -> None:
+    click.echo(
+        f"{stats['successes']}/{stats['runs']} perturbed run(s) reached the goal (p={perturb}, seed {seed}); "
+        f"{_number(stats['mean_events'])} event(s) per run"
+    )
+    click.echo(
+        f"successful runs: mean ticks {_number(stats['mean_ticks'])} ({_number(stats['mean_extra_ticks'], True)}), "
+        f"mean cost {_number(stats['mean_cost'])} ({_number(stats['mean_extra_cost'], True)})"
+    )
+    click.echo(f"undisturbed: {_describe_run(base, base_reached)}")
 
 
 @click.command("verify")

@@ -1,4 +1,4 @@
-"""Run the tree of a search from a state: Fallback(goal, Sequence(c1,a1), Sequence(c2,a2), ...).
+"""The tree of a search as a policy: Fallback(goal, Sequence(c1,a1), Sequence(c2,a2), ...).
 
 The branches are ordered by (real cost from the condition to the goal, expansion index): at every
 tick the cheapest explored condition that holds selects its action. The action of a branch leads to
@@ -10,54 +10,37 @@ first branch that holds, so a tree built from an optimal search costs exactly th
 (Algorithm 1 appends branches in expansion order, which is the same order for OBTEA; under A* or
 HBTP's discounted costs the expansion order can put a costlier condition first.)
 
-This is the executor of D(T) for the planners; :mod:`hbtp.bt` builds and ticks the real tree.
+The search runs this policy with the one executor (:func:`hbtp.logic.execution.execute`) to get D(T);
+:func:`hbtp.bt.build.full_tree` builds the same branches as nodes.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 
+from hbtp.logic.execution import Run, execute, first_match
 from hbtp.logic.task import GroundTask, State
 from hbtp.planning.result import Expansion
 
 
 def branch_order(expansions: Sequence[Expansion]) -> list[int]:
-    """The expansions of the tree's branches (all but the goal), cheapest cost to the goal first."""
-    return sorted(range(1, len(expansions)), key=lambda i: (expansions[i].cost_to_goal, i))
-
-
-@dataclass(frozen=True)
-class Run:
-    reached: bool
-    actions: tuple[int, ...]
-    cost: int
-    final_state: State
+    """The expansions of the tree's branches (all but the goal), cheapest cost to the goal first,
+    then in expansion order (the sort is stable)."""
+    costs = [expansion.cost_to_goal for expansion in expansions]
+    return sorted(range(1, len(expansions)), key=costs.__getitem__)
 
 
 def execute_expansions(
-    task: GroundTask,
-    goal: frozenset[int],
-    expansions: Sequence[Expansion],
-    state: State | None = None,
-    max_steps: int | None = None,
+    task: GroundTask, goal: frozenset[int], expansions: Sequence[Expansion], state: State | None = None
 ) -> Run:
-    """Tick the expansion tree from ``state`` (default s0) until the goal holds or nothing applies."""
-    current = task.initial_state if state is None else state
-    limit = max_steps if max_steps is not None else len(expansions) + 1
-    branches = [expansions[i] for i in branch_order(expansions)]
-    done: list[int] = []
-    cost = 0
-    for _ in range(limit):
-        if goal <= current:
-            return Run(True, tuple(done), cost, current)
-        for expansion in branches:
-            if expansion.action is not None and expansion.condition <= current:
-                action = task.actions[expansion.action]
-                current = action.progress(current)
-                done.append(action.index)
-                cost += action.cost
-                break
-        else:
-            return Run(False, tuple(done), cost, current)
-    return Run(goal <= current, tuple(done), cost, current)
+    """Tick the expansion tree from ``state`` (default s0) until the goal holds or nothing applies.
+
+    A branch's condition was regressed through its action, so it includes the action's
+    precondition: the first-match list of (goal, success), then (c_i, a_i), is the tree.
+    """
+    table: list[tuple[frozenset[int], int | None]] = [(goal, None)]
+    table += [(expansions[i].condition, expansions[i].action) for i in branch_order(expansions)]
+    return execute(first_match(table), task, state, max_ticks=len(expansions) + 1)
+
+
+__all__ = ["branch_order", "execute_expansions"]
