@@ -58,13 +58,15 @@ def test_table2_with_the_oracle_and_resume(capsys: pytest.CaptureFixture[str], t
     assert len(results) == 5
     expected_ids = [r.id for r in load_dataset("table2_robowaiter_50")[:5]]
     assert [r["task"] for r in results] == expected_ids
+    optimal_costs = {"1": 5, "2": 57, "3": 5, "4": 57, "5": 3}  # Make_Coffee; Make_Water ... PutDown_Water_Table1; ...
+    plans = {r.id: r.optimal_actions for r in load_dataset("table2_robowaiter_50")[:5]}
     for row in results:
         assert (row["scenario"], row["backend"], row["run"]) == ("robowaiter", "oracle", 0)
         assert (row["outcome"], row["solved"], row["rounds"]) == ("NF", True, 1)
-        assert row["action_space"] > 0
-        assert row["p_hat"] > 0
-        assert row["explored"] > 0
-        assert row["cost"] > 0
+        assert row["cost"] == optimal_costs[row["task"]]
+        assert row["p_hat"] == row["p_star"] == len(plans[row["task"]])
+        assert row["action_space"] == row["A_star"] == len(set(plans[row["task"]]))
+        assert row["explored"] == row["p_star"] + 1  # a perfect p̂: HBTP-S expands |p*| + 1 conditions
         assert row["errors"] == []
     summary = json.loads((out / "robowaiter" / "summary.json").read_text(encoding="utf-8"))
     assert summary["tasks"] == 5

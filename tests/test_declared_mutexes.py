@@ -98,7 +98,7 @@ def test_the_llm_loop_without_fallback_does_not_call_the_issue_goal_unsolvable(r
     goal = task.resolve_goal(ISSUE_GOAL)
     options = LoopOptions(planner="obtea", feedback_rounds=1, fallback=False)
     loop = run_hbtp(robothow_small, goal, OracleBackend(robothow_small), (), options)
-    assert loop.outcome == "NF"
+    assert loop.outcome.label == "NF"
     assert_reaches(loop.result, task, goal)
 
 

@@ -11,11 +11,12 @@ import pytest
 
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
+from hbtp.datasets.reply import format_reply
 from hbtp.domains import Scenario
 from hbtp.errors import BackendError, InputError
-from hbtp.llm.backend import Message, Reply, Request
+from hbtp.llm.backend import Message, PromptStyle, Reply, Request
 from hbtp.llm.backends.first_reply import FirstReplyBackend
-from hbtp.llm.backends.oracle import NoisyOracleBackend, OracleBackend, format_reply
+from hbtp.llm.backends.oracle import NoisyOracleBackend, OracleBackend
 from hbtp.llm.backends.registry import BackendOptions, make_backend
 from hbtp.llm.backends.replay import RecordingBackend, ReplayBackend
 from hbtp.llm.grammar import check_reply
@@ -48,6 +49,7 @@ class Counting:
     """A backend that answers from a function and counts its calls."""
 
     name = "counting"
+    prompt_style = PromptStyle.CHAT
 
     def __init__(self, answer: str = "Optimal Actions: Walk_fridge") -> None:
         self.answer = answer

@@ -25,13 +25,14 @@ from hbtp.cli.hints_file import load_hints
 from hbtp.datasets import load_dataset
 from hbtp.domains import Scenario
 from hbtp.errors import BackendError, InputError
-from hbtp.llm.backend import Message, Reply, Request
+from hbtp.llm.backend import Message, PromptStyle, Reply, Request
 from hbtp.llm.backends.oracle import OracleBackend
+from hbtp.llm.parse import hints_from_record
 from hbtp.llm.pool import example_pool
 from hbtp.llm.redact import REDACTED, redact
-from hbtp.pipeline import LoopOptions, run_hbtp
+from hbtp.pipeline import LoopOptions, RoundStatus, run_hbtp
 from hbtp.pipeline import loop as loop_module
-from hbtp.planning import Limits, hints_from_record
+from hbtp.planning import Limits
 
 GOAL = "On_Coffee_Table1"  # robowaiter: the full-space fallback solves it in milliseconds
 SLACK = 5.0  # generous: the bound asserted is the limit plus this
@@ -272,6 +273,7 @@ def test_retries_stop_at_the_deadline(json_server: Any) -> None:
 def test_every_llm_call_gets_the_time_left(robowaiter: Scenario) -> None:
     class Slow:
         name = "slow"
+        prompt_style = PromptStyle.CHAT
 
         def __init__(self) -> None:
             self.limits: list[float | None] = []
@@ -291,7 +293,7 @@ def test_every_llm_call_gets_the_time_left(robowaiter: Scenario) -> None:
     assert len(backend.limits) == 1
     assert backend.limits[0] is not None
     assert 0 < backend.limits[0] <= 1.0
-    assert loop.outcome == "failed"
+    assert loop.outcome.label == "failed"
     assert loop.result.status.value == "timeout"
 
 
@@ -458,6 +460,7 @@ def test_a_failed_feedback_round_does_not_search_again(robowaiter: Scenario, mon
 
     class Failing:
         name = "failing"
+        prompt_style = PromptStyle.CHAT
 
         def __init__(self) -> None:
             self.calls = 0
@@ -473,8 +476,9 @@ def test_a_failed_feedback_round_does_not_search_again(robowaiter: Scenario, mon
 
     loop = run_hbtp(robowaiter, GOAL, Failing(), example_pool(robowaiter), LoopOptions(grammar_retries=0))
     assert len(searches) == 1  # round 0 only: round 1 got no answer, so its space is round 0's
-    assert loop.outcome == "fallback"
-    assert [r.status for r in loop.rounds][1] == "skipped"
+    assert loop.outcome.label == "fallback"
+    assert [r.status for r in loop.rounds][1] is RoundStatus.SKIPPED
+    assert loop.to_dict()["rounds"][1]["status"] == "skipped"
     assert loop.rounds[1].error == "HTTP 503"
 
 

@@ -7,9 +7,8 @@ import time
 import pytest
 
 from hbtp.datasets import load_dataset
-from hbtp.llm.backends.oracle import format_reply
-from hbtp.llm.parse import parse_reply
-from hbtp.planning import hints_from_record
+from hbtp.datasets.reply import format_reply
+from hbtp.llm.parse import hints_from_record, parse_reply
 
 ALL = frozenset({"path", "predicates", "objects"})
 DATASET_REPLY = """Optimal Actions: Walk_apple, RightGrab_apple, Walk_fridge, Open_fridge, RightPutIn_apple_fridge

@@ -17,6 +17,7 @@ from hbtp.llm.backend import Request
 from hbtp.llm.pool import example_pool
 from hbtp.llm.prompt import (
     COMPLETION_MAX_TOKENS,
+    Feedback,
     PromptOptions,
     build_request,
     estimate_tokens,
@@ -287,9 +288,8 @@ def test_feedback_request(first_request: Request) -> None:
     pool = example_pool(scenario)
     paths = [["Walk_fridge", "Open_fridge", "RightPutIn_cutlets_fridge", "Close_fridge"], ["Close_fridge"]]
     reply = "Optimal Actions: Walk_fridge, Close_fridge"
-    feedback = feedback_request(
-        first_request, reply, paths, ["PlugIn", "RightGrab"], ["cutlets"], scenario.task, pool, 5
-    )
+    missing = Feedback(tuple(map(tuple, paths)), ("PlugIn", "RightGrab"), ("cutlets",))
+    feedback = feedback_request(first_request, reply, missing, pool, PromptOptions(examples=3))
     assert (feedback.round, feedback.attempt) == (first_request.round + 1, 0)
     assert feedback.messages[-2].content == reply
     text = feedback.messages[-1].content
@@ -299,9 +299,10 @@ def test_feedback_request(first_request: Request) -> None:
     assert "Action predicates left out: PlugIn, RightGrab" in text
     assert "Objects left out: cutlets" in text
     assert feedback.completion_prompt.endswith(f"Goals: {GOAL}\nOptimal Actions:")
-    assert feedback.completion_prompt.count("Goals:") == 6  # more demonstrations for a base model
-    second = feedback_request(feedback, reply, [], [], [], scenario.task, pool, 5)
+    assert feedback.completion_prompt.count("Goals:") == 6  # 3 + 2 more demonstrations for a base model
+    second = feedback_request(feedback, reply, Feedback(), pool, PromptOptions(examples=3))
     assert second.round == 2
+    assert second.completion_prompt.count("Goals:") == 8  # 3 + 2 per feedback round
     assert "left out" not in second.messages[-1].content
     assert "longest partial plans" not in second.messages[-1].content
 

@@ -25,15 +25,16 @@ from hbtp.bt.simulate import simulate
 from hbtp.datasets import load_dataset
 from hbtp.domains import Scenario
 from hbtp.errors import BackendError
-from hbtp.llm.backend import Reply, Request
+from hbtp.llm.backend import PromptStyle, Reply, Request
 from hbtp.llm.backends.oracle import NoisyOracleBackend, OracleBackend
 from hbtp.llm.backends.replay import RecordingBackend, ReplayBackend
 from hbtp.llm.pool import example_pool
 from hbtp.llm.prompt import PromptOptions
-from hbtp.pipeline import LoopOptions, LoopResult, run_hbtp
+from hbtp.pipeline import LoopOptions, LoopResult, Outcome, RoundStatus, run_hbtp
 from hbtp.pipeline.loop import longest_paths
 from hbtp.planning import Hints, plan
 from hbtp.planning.execution import execute_expansions
+from hbtp.planning.result import Status
 from helpers import reaches
 
 HAVE_XLLAMACPP = importlib.util.find_spec("xllamacpp") is not None
@@ -80,6 +81,7 @@ class Scripted:
     is raised. Every request is kept for inspection."""
 
     name = "scripted"
+    prompt_style = PromptStyle.CHAT
 
     def __init__(self, *script: str | Exception) -> None:
         self.script = script
@@ -104,8 +106,8 @@ def assert_reaches_goal(scenario: Scenario, loop: LoopResult) -> None:
     goal = result.goal.ids
     assert result.solved, (loop.outcome, result.status, result.message)
     run = execute_expansions(task, goal, result.expansions)
-    assert run.reached
-    assert reaches(task, run.actions, goal)
+    assert run.reached(goal)
+    assert reaches(task, run.executed, goal)
     assert run.cost == result.cost
     ticked = simulate(tree_of(result, "full"), task)
     assert ticked.reached(goal)
@@ -127,7 +129,8 @@ def assert_round_records_complete(loop: LoopResult, task_actions: int) -> None:
             assert prompt["completion_prompt"].endswith("Optimal Actions:")
         assert len(record.replies) in (len(record.prompts), len(record.prompts) - 1)
         assert 0 <= record.action_space <= task_actions
-        assert record.status in ("solved", "unsolvable", "timeout", "node-limit", "memory-limit")
+        assert record.status is not RoundStatus.SKIPPED
+        assert record.to_dict()["status"] in ("solved", "unsolvable", "timeout", "node-limit", "memory-limit")
         assert record.llm_seconds >= 0
         assert record.planning_seconds >= 0
         json.dumps(record.to_dict())
@@ -161,10 +164,10 @@ def test_oracle_solves_the_table2_tasks_without_feedback(name: str, request: pyt
     assert len(records) >= 10
     for record in records:
         loop = run_hbtp(scenario, record.goal, backend, pool, options)
-        assert loop.outcome == "NF", record.id
+        assert loop.outcome.label == "NF", record.id
         assert len(loop.rounds) == 1
         (first,) = loop.rounds
-        assert first.status == "solved"
+        assert first.status is RoundStatus.SOLVED
         assert len(first.prompts) == len(first.replies) == 1
         if first.hints.path:
             assert first.hints.predicates
@@ -190,11 +193,12 @@ def test_outcome_label_counts_the_feedback_rounds(
 ) -> None:
     backend = Scripted(*([WRONG_ACTIONS] * wrong_rounds), RIGHT)
     loop = run_small(robothow_small, small_pool, backend, feedback_rounds=3)
-    assert loop.outcome == outcome
+    assert loop.outcome == Outcome.parse(outcome)
+    assert loop.outcome.label == outcome == loop.to_dict()["outcome"]
     assert len(loop.rounds) == min(wrong_rounds + 1, 4)
     assert len(backend.requests) == min(wrong_rounds + 1, 4)
     assert [r.round for r in backend.requests] == list(range(len(backend.requests)))
-    assert [r.status for r in loop.rounds[:wrong_rounds]] == ["unsolvable"] * min(wrong_rounds, 4)
+    assert [r.status for r in loop.rounds[:wrong_rounds]] == [RoundStatus.UNSOLVABLE] * min(wrong_rounds, 4)
     assert_round_records_complete(loop, len(robothow_small.task.actions))
     assert_reaches_goal(robothow_small, loop)
 
@@ -204,7 +208,7 @@ def test_a_late_feedback_round_is_not_labelled_3f(robothow_small: Scenario, smal
     loop = run_small(robothow_small, small_pool, backend, feedback_rounds=6)
     assert len(loop.rounds) == 6  # solved after five feedback rounds
     assert loop.solved
-    assert loop.outcome == "5F"
+    assert loop.outcome.label == "5F"
 
 
 @pytest.mark.parametrize(
@@ -224,10 +228,10 @@ def test_bad_answers_still_solve_through_the_fallback(
 ) -> None:
     backend = Scripted(*script)
     loop = run_small(robothow_small, small_pool, backend)
-    assert loop.outcome == "fallback"
+    assert loop.outcome.label == "fallback"
     assert len(loop.rounds) == 4
     assert len(backend.requests) == requests
-    assert all(r.status != "solved" for r in loop.rounds)
+    assert all(r.status is not RoundStatus.SOLVED for r in loop.rounds)
     assert_round_records_complete(loop, len(robothow_small.task.actions))
     assert_reaches_goal(robothow_small, loop)
     # the fallback plans in the full space: the tree is as cheap as the oracle's
@@ -238,11 +242,11 @@ def test_bad_answers_still_solve_through_the_fallback(
 def test_a_missing_action_is_found_through_feedback(robothow_small: Scenario, small_pool: list[Any]) -> None:
     backend = Scripted(MISSING_ACTION, RIGHT)
     loop = run_small(robothow_small, small_pool, backend)
-    assert loop.outcome == "1F"
+    assert loop.outcome.label == "1F"
     first, second = loop.rounds
-    assert first.status == "unsolvable"
+    assert first.status is RoundStatus.UNSOLVABLE
     assert "PlugIn(fridge)" not in first.hints.path
-    assert second.status == "solved"
+    assert second.status is RoundStatus.SOLVED
     assert second.action_space > first.action_space  # the space only grows
     assert_reaches_goal(robothow_small, loop)
 
@@ -250,7 +254,7 @@ def test_a_missing_action_is_found_through_feedback(robothow_small: Scenario, sm
 def test_without_fallback_an_unsolved_task_fails_quietly(robothow_small: Scenario, small_pool: list[Any]) -> None:
     for script in ((WRONG_ACTIONS,), (GARBAGE,), (BackendError("server down"),)):
         loop = run_small(robothow_small, small_pool, Scripted(*script), fallback=False)
-        assert loop.outcome == "failed"
+        assert loop.outcome.label == "failed"
         assert not loop.solved
         assert not loop.result.solved
         assert loop.rounds
@@ -259,9 +263,9 @@ def test_without_fallback_an_unsolved_task_fails_quietly(robothow_small: Scenari
 def test_no_feedback_rounds_and_no_fallback(robothow_small: Scenario, small_pool: list[Any]) -> None:
     backend = Scripted(WRONG_ACTIONS)
     loop = run_small(robothow_small, small_pool, backend, feedback_rounds=0, fallback=False)
-    assert (loop.outcome, len(loop.rounds), len(backend.requests)) == ("failed", 1, 1)
+    assert (loop.outcome.label, len(loop.rounds), len(backend.requests)) == ("failed", 1, 1)
     loop = run_small(robothow_small, small_pool, Scripted(WRONG_ACTIONS), feedback_rounds=0)
-    assert loop.outcome == "fallback"
+    assert loop.outcome.label == "fallback"
     assert_reaches_goal(robothow_small, loop)
 
 
@@ -269,7 +273,7 @@ def test_no_feedback_rounds_and_no_fallback(robothow_small: Scenario, small_pool
 def test_grammar_retry_then_success(robothow_small: Scenario, small_pool: list[Any]) -> None:
     backend = Scripted(UNKNOWN, RIGHT)
     loop = run_small(robothow_small, small_pool, backend)
-    assert loop.outcome == "NF"
+    assert loop.outcome.label == "NF"
     (record,) = loop.rounds
     assert len(backend.requests) == 2 == len(record.prompts) == len(record.replies)
     assert [(r.round, r.attempt) for r in backend.requests] == [(0, 0), (0, 1)]
@@ -286,7 +290,7 @@ def test_grammar_retry_then_success(robothow_small: Scenario, small_pool: list[A
 def test_repairs_are_recorded_without_a_retry(robothow_small: Scenario, small_pool: list[Any]) -> None:
     backend = Scripted(CASE_ERRORS)
     loop = run_small(robothow_small, small_pool, backend)
-    assert loop.outcome == "NF"
+    assert loop.outcome.label == "NF"
     assert len(backend.requests) == 1
     assert set(loop.rounds[0].repairs) == {"walk_cutlets -> Walk_cutlets", "Cutlets -> cutlets"}
     assert loop.rounds[0].blacklist == ()
@@ -298,7 +302,7 @@ def test_the_blacklist_accumulates_over_rounds(robothow_small: Scenario, small_p
     second = "Optimal Actions: Fly_fridge\nVital Action Predicates: Walk\nVital Objects: fridge"
     backend = Scripted(first, first, first, second, second, second, RIGHT)
     loop = run_small(robothow_small, small_pool, backend, grammar_retries=2)
-    assert loop.outcome == "2F"
+    assert loop.outcome.label == "2F"
     assert loop.rounds[0].blacklist == ("Teleport_cutlets",)
     assert loop.rounds[1].blacklist == ("Teleport_cutlets", "Fly_fridge")
     assert loop.rounds[2].blacklist == ("Teleport_cutlets", "Fly_fridge")
@@ -324,7 +328,7 @@ def test_the_conversation_holds_only_what_was_really_said(robothow_small: Scenar
     replies = [UNKNOWN, UNKNOWN.replace("unicorn", "dragon"), UNKNOWN.replace("unicorn", "moon"), WRONG_ACTIONS, RIGHT]
     backend = Scripted(*replies)
     loop = run_small(robothow_small, small_pool, backend, grammar_retries=2)
-    assert loop.outcome == "2F"
+    assert loop.outcome.label == "2F"
     for number, request in enumerate(backend.requests):
         roles = [m.role for m in request.messages]
         assert roles[0] == "system"
@@ -337,7 +341,7 @@ def test_an_unanswered_retry_stays_out_of_the_conversation(robothow_small: Scena
     backend = Scripted(UNKNOWN, BackendError("timed out once"), MISSING_ACTION, RIGHT)
     loop = run_small(robothow_small, small_pool, backend)
     assert [(r.round, r.attempt) for r in backend.requests] == [(0, 0), (0, 1), (1, 0), (2, 0)]
-    assert loop.outcome == "2F"
+    assert loop.outcome.label == "2F"
     assert loop.rounds[0].error == "timed out once"
     feedback = backend.requests[2]
     assert [m.role for m in feedback.messages] == ["system", "user", "assistant", "user"]
@@ -353,7 +357,7 @@ def test_feedback_carries_the_longest_paths_and_what_was_left_out(
     task = robothow_small.task
     backend = Scripted(MISSING_ACTION, RIGHT)
     loop = run_small(robothow_small, small_pool, backend, top_k=2)
-    assert loop.outcome == "1F"
+    assert loop.outcome.label == "1F"
     feedback = backend.requests[1]
     assert (feedback.round, feedback.attempt) == (1, 0)
     assert feedback.messages[-2].content == MISSING_ACTION
@@ -421,7 +425,7 @@ def test_backend_down_stops_asking_and_falls_back(robothow_small: Scenario, smal
     loop = run_small(robothow_small, small_pool, backend)
     assert time.monotonic() - started < 10
     assert len(backend.requests) == 1
-    assert loop.outcome == "fallback"
+    assert loop.outcome.label == "fallback"
     (record,) = loop.rounds
     assert "connection refused" in record.error
     assert record.replies == ()
@@ -429,11 +433,21 @@ def test_backend_down_stops_asking_and_falls_back(robothow_small: Scenario, smal
     assert_reaches_goal(robothow_small, loop)
 
 
+def test_backend_down_without_fallback_is_not_planned_not_unsolvable(
+    robothow_small: Scenario, small_pool: list[Any]
+) -> None:
+    backend = Scripted(BackendError("cannot reach the LLM server: connection refused"))
+    loop = run_small(robothow_small, small_pool, backend, fallback=False)
+    assert loop.outcome.label == "failed"
+    assert loop.result.status is Status.NOT_PLANNED  # no search ran: no verdict, certainly no proof
+    assert "connection refused" in loop.result.message
+
+
 def test_backend_lost_after_a_round(robothow_small: Scenario, small_pool: list[Any]) -> None:
     backend = Scripted(MISSING_ACTION, BackendError("HTTP 503"))
     loop = run_small(robothow_small, small_pool, backend)
     assert len(backend.requests) == 2
-    assert loop.outcome == "fallback"
+    assert loop.outcome.label == "fallback"
     assert [r.error for r in loop.rounds] == ["", "HTTP 503"]
     # the fallback keeps what the LLM said in round 0 (it only orders the search)
     assert_reaches_goal(robothow_small, loop)
@@ -443,7 +457,7 @@ def test_backend_lost_during_a_grammar_retry(robothow_small: Scenario, small_poo
     backend = Scripted(UNKNOWN, BackendError("timed out"))
     loop = run_small(robothow_small, small_pool, backend)
     assert [(r.round, r.attempt) for r in backend.requests] == [(0, 0), (0, 1), (1, 0)]
-    assert loop.outcome == "fallback"
+    assert loop.outcome.label == "fallback"
     assert_reaches_goal(robothow_small, loop)
 
 
@@ -455,7 +469,7 @@ def test_oracle_runs_are_identical(robothow: Scenario) -> None:
     assert runs[0].result.expansions == runs[1].result.expansions
     assert (runs[0].result.solution, runs[0].result.cost) == (runs[1].result.solution, runs[1].result.cost)
     assert without_timing(runs[0]) == without_timing(runs[1])
-    assert runs[0].outcome == runs[1].outcome == "NF"
+    assert runs[0].outcome == runs[1].outcome == Outcome.after(0)
 
 
 def test_replayed_runs_are_identical(tmp_path: Path, robothow_small: Scenario, small_pool: list[Any]) -> None:
@@ -463,7 +477,7 @@ def test_replayed_runs_are_identical(tmp_path: Path, robothow_small: Scenario, s
     noisy = NoisyOracleBackend(robothow_small, drop=0.6, insert=0.6, seed=11)
     goals = [r.goal for r in load_dataset("table2_robothow_small_50")[:10]]
     first = [run_hbtp(robothow_small, g, RecordingBackend(noisy, path), small_pool) for g in goals]
-    assert any(loop.outcome != "NF" for loop in first), "the noise never needed feedback"
+    assert any(loop.outcome.label != "NF" for loop in first), "the noise never needed feedback"
     for _ in range(2):
         replay = ReplayBackend(path)
         again = [run_hbtp(robothow_small, g, replay, small_pool) for g in goals]
@@ -572,7 +586,7 @@ def test_openai_backend_normal_answers(
         loop = run_hbtp(
             robothow_small, record.goal, backend, small_pool, LoopOptions(prompt=PromptOptions(style=style))
         )
-        assert loop.outcome == "NF", record.id
+        assert loop.outcome.label == "NF", record.id
         assert_reaches_goal(robothow_small, loop)
     assert len(server.requests) == 5
     assert {r["path"] for r in server.requests} == {"/v1/completions" if completions else "/v1/chat/completions"}
@@ -591,7 +605,7 @@ def test_openai_server_down_falls_back(robothow_small: Scenario, small_pool: lis
     started = time.monotonic()
     loop = run_small(robothow_small, small_pool, backend)
     assert time.monotonic() - started < 10
-    assert loop.outcome == "fallback"
+    assert loop.outcome.label == "fallback"
     assert len(loop.rounds) == 1
     assert "connection refused" in loop.rounds[0].error
     assert_reaches_goal(robothow_small, loop)
@@ -606,7 +620,7 @@ def test_openai_timeout_falls_back_in_bounded_time(serve: Any, robothow_small: S
     elapsed = time.monotonic() - started
     assert elapsed < 1.0 + 5.0
     assert len(server.requests) == 1  # a timeout is not retried, and the loop stops asking
-    assert loop.outcome == "fallback"
+    assert loop.outcome.label == "fallback"
     assert "no answer from the LLM server" in loop.rounds[0].error
     assert_reaches_goal(robothow_small, loop)
 
@@ -622,7 +636,7 @@ def test_openai_garbage_falls_back(
 ) -> None:
     server = serve(lambda path, payload: answer)
     loop = run_small(robothow_small, small_pool, openai_backend(server.base_url))
-    assert loop.outcome == "fallback"
+    assert loop.outcome.label == "fallback"
     assert len(server.requests) == requests
     assert_reaches_goal(robothow_small, loop)
 
@@ -649,7 +663,7 @@ def test_real_model_behind_the_openai_backend_runs_the_loop(robothow_small: Scen
             backend.close()
     elapsed = time.monotonic() - started
     assert loop.solved
-    assert loop.outcome in ("NF", "1F", "fallback")
+    assert loop.outcome.label in ("NF", "1F", "fallback")
     assert loop.rounds[0].replies, "the model answered nothing"
     assert loop.rounds[0].prompts[0]["completion_prompt"].endswith(f"Goals: {REAL_GOAL}\nOptimal Actions:")
     assert loop.llm_seconds > 0
@@ -682,7 +696,7 @@ def test_the_fallback_does_not_trust_declared_mutexes(robothow_small: Scenario, 
     # makes it reachable, and only the fallback, which prunes with proved mutexes, can find it.
     goal = "IsLeftHandEmpty_self & IsLeftHolding_self_rag"
     loop = run_hbtp(robothow_small, goal, Scripted(EMPTY), small_pool, LoopOptions(feedback_rounds=0))
-    assert loop.outcome == "fallback"
+    assert loop.outcome.label == "fallback"
     assert loop.solved
     run = execute_expansions(robothow_small.task, loop.result.goal.ids, loop.result.expansions)
-    assert run.reached
+    assert run.reached(loop.result.goal.ids)

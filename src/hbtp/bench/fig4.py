@@ -11,9 +11,6 @@ Each planner reports |S⁻| and D(T). Seeded per (task, rates, seed): reruns giv
 
 from __future__ import annotations
 
-import functools
-import hashlib
-import random
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,15 +23,10 @@ from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, hard_limit, ru
 from hbtp.datasets import load_dataset, validate_records
 from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
-from hbtp.planning import (
-    Hints,
-    Limits,
-    hints_from_record,
-    planner_config,
-    pruned_action_space,
-    resolve_hints,
-    search,
-)
+from hbtp.llm.parse import hints_from_record
+from hbtp.logic.task import GroundAction, GroundTask
+from hbtp.planning import Hints, Limits, planner_config, pruned_action_space, resolve_hints, search
+from hbtp.planning.hints import PathNoise, seeded_random
 from hbtp.planning.result import PlanResult
 
 DATASET = "table1_robothow_100"
@@ -53,16 +45,11 @@ class Fig4Config:
 
 
 def noisy_path(record: Record, candidates: Sequence[str], correct: float, error: float, seed: int) -> list[str]:
-    """The record's optimal actions, each kept with probability ``correct``, with ``round(error *
-    |p*|)`` wrong ones from ``candidates`` (action names) inserted."""
-    digest = hashlib.sha256(f"fig4|{record.id}|{correct}|{error}|{seed}".encode()).digest()
-    rng = random.Random(int.from_bytes(digest[:8], "big"))
-    optimal = list(record.optimal_actions)
-    path = [name for name in optimal if rng.random() < correct]
-    wrong_pool = sorted(set(candidates) - set(optimal)) or sorted(candidates)
-    for _ in range(round(error * len(optimal))):
-        path.insert(rng.randrange(len(path) + 1), rng.choice(wrong_pool))
-    return path
+    """The record's optimal actions with :class:`PathNoise` ``(correct, error)``; the wrong actions
+    come from ``candidates`` (action names) off the optimal path (any of them if none is off it)."""
+    optimal = record.optimal_actions
+    wrong = sorted(set(candidates) - set(optimal)) or sorted(candidates)
+    return PathNoise(correct, error).apply(optimal, wrong, seeded_random("fig4", record.id, correct, error, seed))
 
 
 @dataclass(frozen=True)
@@ -113,10 +100,13 @@ def run_fig4(config: Fig4Config, out: Path, execution: Execution = DEFAULT_EXECU
     return summary
 
 
-@functools.lru_cache(maxsize=8)
-def _pruned_space(record: Record) -> tuple[Any, ...]:
-    task = load_scenario(SCENARIO).task
-    return task.restricted(pruned_action_space(task, resolve_hints(task, hints_from_record(record))))
+def _pruned_space(task: GroundTask, record: Record) -> tuple[GroundAction, ...]:
+    """The record's own pruned action space (built once per task and record, kept with the task)."""
+
+    def build() -> tuple[GroundAction, ...]:
+        return task.restricted(pruned_action_space(task, resolve_hints(task, hints_from_record(record))))
+
+    return task.derived((_pruned_space, record), build)
 
 
 def run_one(run: Fig4Run) -> dict[str, Any]:
@@ -124,7 +114,7 @@ def run_one(run: Fig4Run) -> dict[str, Any]:
     scenario = load_scenario(SCENARIO)
     task = scenario.task
     record = run.record
-    space = _pruned_space(record)
+    space = _pruned_space(task, record)
     path = noisy_path(record, [a.signature.underscored for a in space], run.correct, run.error, run.seed)
     result = search(
         task,

@@ -102,53 +102,7 @@ def table2_section(summaries: list[dict[str, Any]]) -> str:
         f"full space without a heuristic, {first.get('b_time_limit', 0):g} s limit (solved/tasks, mean s; "
         "the paper's B-Time has no limit); B-Time lm: the same search with hbtp's landmark heuristic.",
     ]
-    rows = []
-    for s in summaries:
-        problem = s["problem"]
-        rows.append(
-            [
-                f"{s['scenario']} (ours)",
-                problem["A"],
-                problem["Q"],
-                problem["O"],
-                _num(s.get("A_star")),
-                _num(s.get("p_star")),
-                _num(s["NF"]),
-                _num(s["1F"]),
-                _num(s["3F"]),
-                _num(s["final"]),
-                _num(s["A_minus"]),
-                _num(s["p_hat"]),
-                _num(s["explored"]),
-                _ms(s["mean_planning_s"]),
-                _num(s["mean_llm_s"]),
-                _b_time(s, "b"),
-                _b_time(s, "b_lm"),
-            ]
-        )
-        paper = s["paper"]
-        if paper:
-            rows.append(
-                [
-                    f"{s['scenario']} (paper)",
-                    paper["A"],
-                    paper["Q"],
-                    paper["O"],
-                    paper["A_star"],
-                    paper["p_star"],
-                    paper["NF"],
-                    paper["1F"],
-                    paper["3F"],
-                    "–",
-                    paper["A_minus"],
-                    paper["p_hat"],
-                    paper["explored"],
-                    _ms(paper["time_s"]),
-                    "–",
-                    paper["b_time"],
-                    "–",
-                ]
-            )
+    rows = [row for s in summaries for row in _table2_rows(s)]
     header = ["scenario", "|A|", "|Q|", "|O|", "|A*|", "|p*|", "NF %", "1F %", "3F %", "final %", "|A⁻|", "|p̂|"]
     header += ["|S⁻|", "plan ms", "LLM s", "B-Time", "B-Time lm"]
     parts.append(_table(header, rows))
@@ -159,6 +113,56 @@ def table2_section(summaries: list[dict[str, Any]]) -> str:
         )
     parts.append("![Table II](table2.png)")
     return "\n\n".join(parts)
+
+
+def _table2_rows(s: dict[str, Any]) -> list[list[Any]]:
+    """One scenario's Table II rows: ours, then the paper's (when it has the scenario)."""
+    problem = s["problem"]
+    rows: list[list[Any]] = [
+        [
+            f"{s['scenario']} (ours)",
+            problem["A"],
+            problem["Q"],
+            problem["O"],
+            _num(s.get("A_star")),
+            _num(s.get("p_star")),
+            _num(s["NF"]),
+            _num(s["1F"]),
+            _num(s["3F"]),
+            _num(s["final"]),
+            _num(s["A_minus"]),
+            _num(s["p_hat"]),
+            _num(s["explored"]),
+            _ms(s["mean_planning_s"]),
+            _num(s["mean_llm_s"]),
+            _b_time(s, "b"),
+            _b_time(s, "b_lm"),
+        ]
+    ]
+    paper = s["paper"]
+    if paper:
+        rows.append(
+            [
+                f"{s['scenario']} (paper)",
+                paper["A"],
+                paper["Q"],
+                paper["O"],
+                paper["A_star"],
+                paper["p_star"],
+                paper["NF"],
+                paper["1F"],
+                paper["3F"],
+                "–",
+                paper["A_minus"],
+                paper["p_hat"],
+                paper["explored"],
+                _ms(paper["time_s"]),
+                "–",
+                paper["b_time"],
+                "–",
+            ]
+        )
+    return rows
 
 
 def _b_time(summary: dict[str, Any], prefix: str) -> str:

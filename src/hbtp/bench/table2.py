@@ -10,7 +10,6 @@ example pool).
 
 from __future__ import annotations
 
-import functools
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -29,10 +28,10 @@ from hbtp.errors import InputError
 from hbtp.llm.backend import Backend
 from hbtp.llm.backends.first_reply import FirstReplyBackend
 from hbtp.llm.backends.registry import BackendOptions, make_backend
+from hbtp.llm.parse import hints_from_record
 from hbtp.llm.pool import example_pool
-from hbtp.pipeline import LoopOptions, run_hbtp
-from hbtp.pipeline.loop import LoopResult, feedback_rounds_of
-from hbtp.planning import Limits, hints_from_record, plan, pruned_action_space, release_search_memory, resolve_hints
+from hbtp.pipeline import LoopOptions, LoopResult, Outcome, run_hbtp
+from hbtp.planning import Limits, plan, pruned_action_space, release_search_memory, resolve_hints
 from hbtp.planning.heuristics import HeuristicName
 
 log = logging.getLogger(__name__)
@@ -78,14 +77,14 @@ class Table2Config:
 
 def _row(scenario: Scenario, record: Record, backend_name: str, run: int, loop: LoopResult) -> dict[str, Any]:
     rounds = loop.rounds
-    success = rounds[-1] if feedback_rounds_of(loop.outcome) is not None else None
+    success = rounds[-1] if loop.outcome.feedback_rounds is not None else None
     return {
         "scenario": scenario.name,
         "task": record.id,
         "goal": record.goal.strip(),
         "backend": backend_name,
         "run": run,
-        "outcome": loop.outcome,
+        "outcome": loop.outcome.label,
         "solved": loop.solved,
         "rounds": len(rounds),
         "action_space": success.action_space if success else None,
@@ -133,7 +132,8 @@ class Table2Run:
     b_time_limit: float
 
 
-#: Backends built by this process, per (recipe, scenario, run); a worker keeps its model loaded.
+#: Backends built by this process, per (recipe, scenario, run): a worker keeps its model loaded
+#: across its tasks. Bounded by the runs of one benchmark; :func:`close_backends` empties it.
 _BACKENDS: dict[tuple[BackendRecipe, str, int], Backend] = {}
 
 
@@ -151,16 +151,16 @@ def close_backends() -> None:
         backend.close()
 
 
-@functools.cache
-def _examples(scenario_name: str) -> list[Record]:
-    return example_pool(load_scenario(scenario_name))
+def _examples(scenario: Scenario) -> list[Record]:
+    """The scenario's example pool, read once and kept with its task."""
+    return scenario.task.derived((example_pool, scenario.name), lambda: example_pool(scenario))
 
 
 def run_one(run: Table2Run) -> dict[str, Any]:
     """The HBTP loop on one task, with the oracle columns and the B-Time baseline."""
     scenario = load_scenario(run.scenario)
     record = run.record
-    loop = run_hbtp(scenario, record.goal, _backend(run.recipe, scenario, run.run), _examples(run.scenario), run.loop)
+    loop = run_hbtp(scenario, record.goal, _backend(run.recipe, scenario, run.run), _examples(scenario), run.loop)
     row = _row(scenario, record, run.backend, run.run, loop)
     row.update(oracle_columns(scenario, record))
     if run.b_time_limit > 0 and run.run == 0:
@@ -230,7 +230,7 @@ def run_table2(
                 "goal": record.goal.strip(),
                 "backend": config.backend,
                 "run": run,
-                "outcome": "failed",
+                "outcome": Outcome.FAILED.label,
                 "rounds": 0,
                 "errors": ["killed"],
             },
@@ -268,12 +268,13 @@ def summarise(rows: Sequence[dict[str, Any]], scenario: Scenario, dataset: str, 
         if not rows:
             return None
         hits = 0
-        for row in rows:
-            needed = feedback_rounds_of(row["outcome"])
+        for row, outcome in zip(rows, outcomes, strict=True):
+            needed = outcome.feedback_rounds
             hits += (needed is not None and needed <= rounds) if rounds is not None else row["solved"]
         return round(100.0 * hits / len(rows), 2)
 
-    successful = [r for r in rows if feedback_rounds_of(r["outcome"]) is not None]
+    outcomes = [Outcome.parse(row["outcome"]) for row in rows]
+    successful = [r for r, outcome in zip(rows, outcomes, strict=True) if outcome.feedback_rounds is not None]
     first = [r for r in rows if r["run"] == 0]
     baseline = [r for r in first if "b_time_s" in r]
     per_run = {run: [r for r in rows if r["run"] == run] for run in sorted({r["run"] for r in rows})}
@@ -293,7 +294,7 @@ def summarise(rows: Sequence[dict[str, Any]], scenario: Scenario, dataset: str, 
         "2F": within(2),
         "3F": within(3),
         "final": within(None),
-        "fallback": round(100.0 * sum(r["outcome"] == "fallback" for r in rows) / len(rows), 2) if rows else None,
+        "fallback": round(100.0 * outcomes.count(Outcome.FALLBACK) / len(rows), 2) if rows else None,
         "A_minus": mean([r["action_space"] for r in successful]),
         "p_hat": mean([r["p_hat"] for r in successful]),
         "explored": mean([r["explored"] for r in successful]),

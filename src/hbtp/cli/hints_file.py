@@ -18,9 +18,9 @@ from hbtp.datasets import read_dataset_file
 from hbtp.datasets.records import Record
 from hbtp.domains import Scenario
 from hbtp.errors import DatasetError, InputError
-from hbtp.llm.parse import parse_reply
+from hbtp.llm.parse import hints_from_record, parse_reply
 from hbtp.logic.task import Goal
-from hbtp.planning import Hints, Limits, hints_from_record
+from hbtp.planning import Hints, Limits
 from hbtp.planning.oracle import oracle_hints
 
 log = logging.getLogger(__name__)

@@ -14,6 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from hbtp.datasets.reply import format_reply
 from hbtp.errors import InputError
 
 _LIST_FIELDS = ("optimal_actions", "vital_predicates", "vital_objects")
@@ -44,6 +45,10 @@ class Record:
     environment: str = "1"
     cost: int | None = None
     line: int = field(default=0, compare=False)
+
+    def reply_block(self) -> str:
+        """The record's plan, vital predicates and vital objects as the three lines of a reply."""
+        return format_reply(self.optimal_actions, self.vital_predicates, self.vital_objects)
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON object of this record (``line`` is not part of it; ``cost`` only when known)."""

@@ -34,15 +34,13 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from hbtp.datasets.records import MAX_COST, Record
+from hbtp.datasets.reply import ACTIONS, OBJECTS, PREDICATES, reply_lines
 from hbtp.errors import DatasetError, InputError
 from hbtp.logic.atoms import parse_conjunction
 
 ENVIRONMENT = "Environment"
 INSTRUCTION = "Instruction"
 GOALS = "Goals"
-ACTIONS = "Optimal Actions"
-PREDICATES = "Vital Action Predicates"
-OBJECTS = "Vital Objects"
 COST = "cost"
 
 #: The keys in the order the writer uses.
@@ -112,41 +110,9 @@ def _blocks(text: str) -> list[list[tuple[int, str]]]:
 
 
 def _read_block(block: list[tuple[int, str]], source: str) -> Record:
-    start, id_line = block[0]
-    if _KEY_LINE.match(id_line):
-        raise DatasetError(
-            f"expected a record id, got {id_line.strip()!r} (no id line, or a stray blank line in a record?)",
-            source,
-            start,
-        )
-    if not _TOKEN.fullmatch(id_line.strip()):
-        raise DatasetError(f"expected a record id (one word), got {id_line.strip()!r}", source, start)
-    record_id = id_line.strip()
-    values: dict[str, tuple[int, str]] = {}
-    for number, line in block[1:]:
-        match = _KEY_LINE.match(line)
-        if not match:
-            raise DatasetError(
-                f"record {record_id}: cannot read {line.strip()!r} (expected 'Key: value' or a blank line)",
-                source,
-                number,
-            )
-        key, value = match.group(1), match.group(2).removeprefix(" ")
-        if key not in KEYS:
-            raise DatasetError(
-                f"record {record_id}: unknown key {key!r} (expected one of: {', '.join(KEYS)})", source, number
-            )
-        if key in values:
-            raise DatasetError(
-                f"record {record_id}: duplicate {key!r} line (first at line {values[key][0]})", source, number
-            )
-        values[key] = (number, value)
-    missing = [key for key in REQUIRED if key not in values]
-    if missing:
-        raise DatasetError(
-            f"record {record_id}: missing {', '.join(repr(k + ':') for k in missing)} line", source, start
-        )
-
+    start = block[0][0]
+    record_id = _read_id(block[0], source)
+    values = _key_values(record_id, block, source)
     number = start
     try:
         number, goal = values[GOALS]
@@ -175,6 +141,49 @@ def _read_block(block: list[tuple[int, str]], source: str) -> Record:
         cost=cost,
         line=start,
     )
+
+
+def _read_id(first: tuple[int, str], source: str) -> str:
+    """The record id of a block's first line."""
+    start, id_line = first
+    if _KEY_LINE.match(id_line):
+        raise DatasetError(
+            f"expected a record id, got {id_line.strip()!r} (no id line, or a stray blank line in a record?)",
+            source,
+            start,
+        )
+    if not _TOKEN.fullmatch(id_line.strip()):
+        raise DatasetError(f"expected a record id (one word), got {id_line.strip()!r}", source, start)
+    return id_line.strip()
+
+
+def _key_values(record_id: str, block: list[tuple[int, str]], source: str) -> dict[str, tuple[int, str]]:
+    """``key -> (line number, value)`` of the ``Key: value`` lines after the id; every required key present."""
+    values: dict[str, tuple[int, str]] = {}
+    for number, line in block[1:]:
+        match = _KEY_LINE.match(line)
+        if not match:
+            raise DatasetError(
+                f"record {record_id}: cannot read {line.strip()!r} (expected 'Key: value' or a blank line)",
+                source,
+                number,
+            )
+        key, value = match.group(1), match.group(2).removeprefix(" ")
+        if key not in KEYS:
+            raise DatasetError(
+                f"record {record_id}: unknown key {key!r} (expected one of: {', '.join(KEYS)})", source, number
+            )
+        if key in values:
+            raise DatasetError(
+                f"record {record_id}: duplicate {key!r} line (first at line {values[key][0]})", source, number
+            )
+        values[key] = (number, value)
+    missing = [key for key in REQUIRED if key not in values]
+    if missing:
+        raise DatasetError(
+            f"record {record_id}: missing {', '.join(repr(k + ':') for k in missing)} line", source, block[0][0]
+        )
+    return values
 
 
 def _parse_list(value: str, key: str) -> tuple[str, ...]:
@@ -253,9 +262,7 @@ def _write_record(record: Record) -> str:
         f"{ENVIRONMENT}:{record.environment}",
         f"{INSTRUCTION}: {record.instruction}",
         f"{GOALS}: {record.goal}",
-        f"{ACTIONS}: {', '.join(record.optimal_actions)}",
-        f"{PREDICATES}: {', '.join(record.vital_predicates)}",
-        f"{OBJECTS}: {', '.join(record.vital_objects)}",
+        *reply_lines(record.optimal_actions, record.vital_predicates, record.vital_objects),
     ]
     if record.cost is not None:
         lines.append(f"{COST}: {record.cost}")

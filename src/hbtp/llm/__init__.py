@@ -1,4 +1,4 @@
-"""LLM reasoning: prompts, reply parsing, grammar checking, backends (issue in progress)."""
+"""LLM reasoning: prompts, reply parsing, grammar checking, backends."""
 
 from hbtp.llm.parse import ParsedReply, parse_reply
 

@@ -6,14 +6,25 @@ for chat models and OpenAI-compatible servers) and ``completion_prompt`` (one pl
 follow instructions). A backend uses whichever suits it and returns a :class:`Reply`.
 
 ``goal`` and ``scenario`` travel along for backends that do not need a prompt at all (the oracles).
+
+Each backend declares the :class:`PromptStyle` it reads (``prompt_style``); the prompt builder
+shapes its defaults by it (a completion reply is cut shorter).
 """
 
 from __future__ import annotations
 
+import enum
 import hashlib
 import json
 from dataclasses import dataclass, field
 from typing import Any, Protocol
+
+
+class PromptStyle(enum.Enum):
+    """Which shape of a :class:`Request` a backend reads."""
+
+    CHAT = "chat"  # ``messages``: chat models and OpenAI-compatible chat endpoints
+    COMPLETION = "completion"  # ``completion_prompt``: base models that continue text
 
 
 @dataclass(frozen=True)
@@ -72,6 +83,11 @@ class Backend(Protocol):
     """An LLM: ``complete`` answers a request or raises :class:`hbtp.errors.BackendError`."""
 
     name: str
+
+    @property
+    def prompt_style(self) -> PromptStyle:
+        """The shape of request this backend reads (a wrapper: its inner backend's)."""
+        ...
 
     def complete(self, request: Request) -> Reply: ...
 

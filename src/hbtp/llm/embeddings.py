@@ -17,7 +17,11 @@ from hbtp.errors import BackendError
 log = logging.getLogger(__name__)
 
 _MODEL: Any = None
+#: Embeddings of goal sentences, per process like the model: a pool's goals are embedded once for
+#: all the questions of a run. Keyed by text (no task is kept alive); emptied once it holds
+#: MAX_CACHED texts, so a long-lived process stays bounded.
 _CACHE: dict[str, Any] = {}
+MAX_CACHED = 10_000
 
 
 def goal_sentence(goal: str) -> str:
@@ -52,6 +56,8 @@ def _model() -> Any:
 
 
 def _embed(texts: Sequence[str]) -> Any:
+    if len(_CACHE) >= MAX_CACHED:
+        _CACHE.clear()
     missing = [t for t in dict.fromkeys(texts) if t not in _CACHE]
     if missing:
         vectors = _model().encode(list(missing), normalize_embeddings=True, show_progress_bar=False)

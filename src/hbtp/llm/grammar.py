@@ -10,8 +10,9 @@ from __future__ import annotations
 import difflib
 from dataclasses import dataclass
 
+from hbtp.datasets.reply import TITLES
 from hbtp.errors import InputError
-from hbtp.llm.parse import ParsedReply
+from hbtp.llm.parse import ParsedReply, underscored
 from hbtp.llm.vocabulary import vocabulary_of
 from hbtp.logic.atoms import Atom, parse_atom
 from hbtp.logic.task import GroundTask
@@ -41,7 +42,8 @@ class GrammarCheck:
         return not self.unknown and not self.missing_sections
 
 
-SECTION_TITLES = {"path": "Optimal Actions", "predicates": "Vital Action Predicates", "objects": "Vital Objects"}
+#: The reply's line titles, by hints field (the missing ones are named by these).
+SECTION_TITLES = TITLES
 
 
 class _Matcher:
@@ -72,32 +74,16 @@ class _Matcher:
         if not close or difflib.SequenceMatcher(None, name, close[0]).ratio() < CUTOFF:
             return None
         return close[0] if len(close) == 1 else None
-        if len(close) == 1:
-            return close[0]
-        first = difflib.SequenceMatcher(None, name, close[0]).ratio()
-        second = difflib.SequenceMatcher(None, name, close[1]).ratio()
-        if first - second >= 0.05:
-            return close[0]
-        return None
-
-
-_MATCHERS: dict[int, tuple[GroundTask, _Matcher, _Matcher]] = {}
 
 
 def _matchers(task: GroundTask) -> tuple[_Matcher, _Matcher]:
-    cached = _MATCHERS.get(id(task))
-    if cached is None or cached[0] is not task:
+    """The task's predicate and object matchers (kept with the task: their memos grow as names are met)."""
+
+    def build() -> tuple[_Matcher, _Matcher]:
         vocabulary = vocabulary_of(task)
-        cached = (task, _Matcher(vocabulary.predicate_names), _Matcher(vocabulary.object_names))
-        _MATCHERS[id(task)] = cached
-    return cached[1], cached[2]
+        return _Matcher(vocabulary.predicate_names), _Matcher(vocabulary.object_names)
 
-
-def _underscored(name: str) -> str:
-    try:
-        return parse_atom(name).underscored
-    except InputError:
-        return name
+    return task.derived(_matchers, build)
 
 
 def _match_action(name: str, predicates: _Matcher, objects: _Matcher, action_names: frozenset[str]) -> Atom | None:
@@ -135,7 +121,7 @@ def check_reply(parsed: ParsedReply, task: GroundTask) -> GrammarCheck:
 
     path: list[str] = []
     for name in parsed.hints.path:
-        written = _underscored(name)  # the datasets' spelling, as the model was asked to write it
+        written = underscored(name)  # the datasets' spelling, as the model was asked to write it
         action = _match_action(name, predicates, objects, action_names)
         if action is None:
             unknown.append(written)
@@ -145,6 +131,6 @@ def check_reply(parsed: ParsedReply, task: GroundTask) -> GrammarCheck:
         path.append(str(action))
     kept_predicates = [p for p in (resolve(predicates, n) for n in parsed.hints.predicates) if p]
     kept_objects = [o for o in (resolve(objects, n) for n in parsed.hints.objects) if o]
-    missing = tuple(SECTION_TITLES[s] for s in ("path", "predicates", "objects") if s not in parsed.found)
+    missing = tuple(title for section, title in TITLES.items() if section not in parsed.found)
     hints = Hints(tuple(path), tuple(dict.fromkeys(kept_predicates)), tuple(dict.fromkeys(kept_objects)))
     return GrammarCheck(hints, tuple(repairs), tuple(dict.fromkeys(unknown)), missing)

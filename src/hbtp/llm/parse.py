@@ -1,4 +1,4 @@
-"""Read hints out of an LLM reply or a dataset record, tolerating formatting noise.
+"""Read hints out of an LLM reply or a dataset record, tolerating formatting noise; write hints as a reply.
 
 Accepted headings (any case, with or without bullets, bold markers or numbering):
 ``Optimal Actions`` / ``Heuristic Path`` / ``Actions`` for p̂, ``Vital Action Predicates`` /
@@ -12,6 +12,10 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from hbtp.datasets.records import Record
+from hbtp.datasets.reply import format_reply
+from hbtp.errors import InputError
+from hbtp.logic.atoms import parse_atom
 from hbtp.planning.hints import Hints, hints_from_names
 
 _HEADINGS: tuple[tuple[str, str], ...] = (
@@ -86,3 +90,21 @@ def _rejoin(items: list[str]) -> list[str]:
         else:
             out.append(item)
     return out
+
+
+def hints_from_record(record: Record) -> Hints:
+    """A dataset record's plan, vital predicates and objects as hints (the oracle of the benchmarks)."""
+    return hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
+
+
+def underscored(name: str) -> str:
+    """An action name in the datasets' spelling (``Walk(apple)`` -> ``Walk_apple``); unparsable names as they are."""
+    try:
+        return parse_atom(name).underscored
+    except InputError:
+        return name
+
+
+def hints_reply(hints: Hints) -> str:
+    """``hints`` as the reply block a perfect model would write (actions in the datasets' spelling)."""
+    return format_reply(map(underscored, hints.path), hints.predicates, hints.objects)

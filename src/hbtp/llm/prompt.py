@@ -24,7 +24,7 @@ from typing import Any
 
 from hbtp.datasets.records import Record
 from hbtp.errors import InputError
-from hbtp.llm.backend import Message, Request
+from hbtp.llm.backend import Message, PromptStyle, Request
 from hbtp.llm.vocabulary import vocabulary_of
 from hbtp.logic.atoms import parse_conjunction
 from hbtp.logic.task import GroundTask
@@ -47,15 +47,42 @@ RETRIEVALS = ("lexical", "embeddings")
 #: Three short lines; a base model that starts repeating itself is cut off here.
 COMPLETION_MAX_TOKENS = 160
 
+#: Demonstrations added per feedback round (a base model cannot follow the feedback's instructions).
+FEEDBACK_EXTRA_EXAMPLES = 2
+
 
 @dataclass(frozen=True)
 class PromptOptions:
     examples: int = 5
-    style: str = "chat"  # "chat" or "completion"
+    #: ``None``: the backend's own (:attr:`hbtp.llm.backend.Backend.prompt_style`; chat without a
+    #: backend). ``"chat"`` / ``"completion"`` are accepted and stored as their :class:`PromptStyle`.
+    style: PromptStyle | str | None = None
     include_objects: bool = True  # list category members in the chat prompt
     max_tokens: int = 256  # chat; completion replies get COMPLETION_MAX_TOKENS
     exclude_same_goal: bool = False  # benchmarks: never show a demonstration of the very goal asked
     retrieval: str = "lexical"  # or "embeddings" (the optional extra)
+
+    def __post_init__(self) -> None:
+        if isinstance(self.style, str):
+            try:
+                object.__setattr__(self, "style", PromptStyle(self.style))
+            except ValueError:
+                choices = ", ".join(s.value for s in PromptStyle)
+                raise InputError(f"unknown prompt style {self.style!r}; choose one of: {choices}") from None
+
+    def for_backend(self, style: PromptStyle) -> PromptOptions:
+        """These options with ``style`` where none was chosen."""
+        return self if self.style is not None else replace(self, style=style)
+
+
+@dataclass(frozen=True)
+class Feedback:
+    """What a failed round tells the model (§III-C d): the top-k longest partial paths (action
+    names in execution order) and the action predicates and objects the space left out."""
+
+    longest_paths: tuple[tuple[str, ...], ...] = ()
+    missing_predicates: tuple[str, ...] = ()
+    missing_objects: tuple[str, ...] = ()
 
 
 def _goal_features(goal: str) -> tuple[frozenset[str], frozenset[str], frozenset[str]]:
@@ -111,12 +138,7 @@ def retrieve_examples(
 
 
 def format_example(record: Record) -> str:
-    return (
-        f"Goals: {_normal_goal(record.goal)}\n"
-        f"Optimal Actions: {', '.join(record.optimal_actions)}\n"
-        f"Vital Action Predicates: {', '.join(record.vital_predicates)}\n"
-        f"Vital Objects: {', '.join(record.vital_objects)}"
-    )
+    return f"Goals: {_normal_goal(record.goal)}\n{record.reply_block()}"
 
 
 def _normal_goal(goal: str) -> str:
@@ -162,7 +184,7 @@ def build_request(
         goal=goal_text,
         scenario=scenario,
         max_tokens=min(options.max_tokens, COMPLETION_MAX_TOKENS)
-        if options.style == "completion"
+        if options.style is PromptStyle.COMPLETION
         else options.max_tokens,
         stop=("\n\n", "Goals:"),
     )
@@ -204,31 +226,29 @@ def retry_request(previous: Request, reply_text: str, problems: Sequence[str], b
 def feedback_request(
     previous: Request,
     reply_text: str,
-    longest_paths: Sequence[Sequence[str]],
-    missing_predicates: Sequence[str],
-    missing_objects: Sequence[str],
-    task: GroundTask,
+    feedback: Feedback,
     pool: Sequence[Record],
-    examples: int,
-    exclude_same_goal: bool = False,
+    options: PromptOptions = PromptOptions(),
     blacklist: Iterable[str] = (),
-    retrieval: str = "lexical",
 ) -> Request:
-    """Reflective feedback (§III-C d): the top-k longest partial paths and what the space left out."""
+    """Reflective feedback (§III-C d): the next round's question after ``previous`` was answered
+    with ``reply_text`` and the planner failed; a base model gets :data:`FEEDBACK_EXTRA_EXAMPLES`
+    more demonstrations per round instead."""
     lines = ["The planner could not reach the initial state with the actions you allowed."]
-    if longest_paths:
+    if feedback.longest_paths:
         lines.append("The longest partial plans it found (they end at the goal):")
-        lines += [f"{i}. {', '.join(path) if path else '(none)'}" for i, path in enumerate(longest_paths, 1)]
-    if missing_predicates:
-        lines.append(f"Action predicates left out: {', '.join(missing_predicates)}")
-    if missing_objects:
-        lines.append(f"Objects left out: {', '.join(missing_objects)}")
+        lines += [f"{i}. {', '.join(path) if path else '(none)'}" for i, path in enumerate(feedback.longest_paths, 1)]
+    if feedback.missing_predicates:
+        lines.append(f"Action predicates left out: {', '.join(feedback.missing_predicates)}")
+    if feedback.missing_objects:
+        lines.append(f"Objects left out: {', '.join(feedback.missing_objects)}")
     lines.append(
         "Find what is missing (an action, a predicate or an object) and answer again with "
         "Optimal Actions, Vital Action Predicates and Vital Objects."
     )
-    # A base model cannot follow instructions: it gets more demonstrations instead.
-    more = retrieve_examples(previous.goal, pool, examples, exclude_same_goal, retrieval)
+    round_ = previous.round + 1
+    examples = options.examples + FEEDBACK_EXTRA_EXAMPLES * round_
+    more = retrieve_examples(previous.goal, pool, examples, options.exclude_same_goal, options.retrieval)
     demos = "\n\n".join(format_example(r) for r in reversed(more))
     avoid = _avoid_text(blacklist)
     completion = (demos + "\n\n" if demos else "") + (avoid + "\n" if avoid else "")
@@ -237,7 +257,7 @@ def feedback_request(
         previous,
         messages=(*previous.messages, Message("assistant", reply_text), Message("user", "\n".join(lines))),
         completion_prompt=completion,
-        round=previous.round + 1,
+        round=round_,
         attempt=0,
     )
 

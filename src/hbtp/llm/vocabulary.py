@@ -9,7 +9,6 @@ the smallest static unary predicate that covers every value an argument takes; a
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cache
 
 from hbtp.logic.task import GroundTask
 
@@ -40,9 +39,12 @@ def _describe(values: set[str], categories: dict[str, tuple[str, ...]], used: di
     return f"<{label}>"
 
 
-@cache
 def vocabulary_of(task: GroundTask) -> Vocabulary:
-    """The prompt vocabulary of ``task`` (cached per task object)."""
+    """The prompt vocabulary of ``task`` (built once, kept with the task)."""
+    return task.derived(vocabulary_of, lambda: _vocabulary(task))
+
+
+def _vocabulary(task: GroundTask) -> Vocabulary:
     categories = task.categories
     used: dict[str, tuple[str, ...]] = {}
     positions: dict[str, list[set[str]]] = {}

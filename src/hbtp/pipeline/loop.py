@@ -25,7 +25,6 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 from hbtp.datasets.records import Record
 from hbtp.domains.scenarios import Scenario
@@ -33,21 +32,20 @@ from hbtp.errors import BackendError
 from hbtp.llm.backend import Backend, Request
 from hbtp.llm.grammar import GrammarCheck, check_reply
 from hbtp.llm.parse import parse_reply
-from hbtp.llm.prompt import PromptOptions, build_request, feedback_request, retry_request
+from hbtp.llm.prompt import Feedback, PromptOptions, build_request, feedback_request, retry_request
 from hbtp.llm.redact import redact
 from hbtp.logic.task import Goal
+from hbtp.pipeline.results import Exchange, LoopResult, Outcome, RoundRecord
 from hbtp.planning.heuristics import HeuristicName
-from hbtp.planning.hints import Hints, pruned_action_space, resolve_hints
+from hbtp.planning.hints import Hints, ResolvedHints, pruned_action_space, resolve_hints
 from hbtp.planning.limits import Limits
 from hbtp.planning.planners import confirmed_search, plan, planner_config
 from hbtp.planning.result import PlanResult, Status
 from hbtp.planning.search import search
 
-log = logging.getLogger(__name__)
+__all__ = ["LoopOptions", "LoopResult", "RoundRecord", "longest_paths", "run_hbtp"]
 
-#: "NF" (solved with no feedback), "1F", "2F", ... (after that many feedback rounds), "fallback"
-#: (solved in the full space after the last round), or "failed".
-Outcome = str
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -61,92 +59,10 @@ class LoopOptions:
     fallback_time_limit: float = 60.0
     heuristic: HeuristicName = "none"  # inside the pruned rounds (the paper's planners by default)
     fallback_heuristic: HeuristicName = "lm"
+    #: Its ``style`` (``None`` by default) is the backend's own prompt style.
     prompt: PromptOptions = field(default_factory=PromptOptions)
     #: Seconds for the whole run (LLM calls, rounds and fallback); ``None``: no overall bound.
     time_limit: float | None = None
-
-
-@dataclass(frozen=True)
-class RoundRecord:
-    """What happened in one round: the exchange(s) with the LLM and the planning run."""
-
-    round: int
-    prompts: tuple[dict[str, Any], ...]
-    replies: tuple[str, ...]
-    hints: Hints
-    repairs: tuple[str, ...]
-    blacklist: tuple[str, ...]
-    action_space: int
-    status: str
-    explored: int
-    llm_seconds: float
-    planning_seconds: float
-    error: str = ""
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "round": self.round,
-            "prompts": list(self.prompts),
-            "replies": [redact(reply) for reply in self.replies],
-            "hints": {
-                "path": list(self.hints.path),
-                "predicates": list(self.hints.predicates),
-                "objects": list(self.hints.objects),
-            },
-            "repairs": list(self.repairs),
-            "blacklist": list(self.blacklist),
-            "action_space": self.action_space,
-            "status": self.status,
-            "explored": self.explored,
-            "llm_seconds": round(self.llm_seconds, 6),
-            "planning_seconds": round(self.planning_seconds, 6),
-            "error": redact(self.error),
-        }
-
-
-@dataclass(frozen=True)
-class LoopResult:
-    outcome: Outcome
-    result: PlanResult
-    rounds: tuple[RoundRecord, ...]
-    llm_seconds: float
-    planning_seconds: float
-
-    @property
-    def solved(self) -> bool:
-        return self.result.solved
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "outcome": self.outcome,
-            "llm_seconds": round(self.llm_seconds, 6),
-            "planning_seconds": round(self.planning_seconds, 6),
-            "rounds": [r.to_dict() for r in self.rounds],
-        }
-
-
-def round_label(round_number: int) -> Outcome:
-    """``NF`` for the first answer, ``kF`` after k feedback rounds."""
-    return "NF" if round_number == 0 else f"{round_number}F"
-
-
-def feedback_rounds_of(outcome: Outcome) -> int | None:
-    """The number of feedback rounds a successful outcome needed; ``None`` for fallback or failed."""
-    if outcome == "NF":
-        return 0
-    if outcome.endswith("F") and outcome[:-1].isdigit():
-        return int(outcome[:-1])
-    return None
-
-
-def _prompt_record(request: Request) -> dict[str, Any]:
-    return {
-        "key": request.key(),
-        "round": request.round,
-        "attempt": request.attempt,
-        "messages": [{"role": m.role, "content": m.content} for m in request.messages],
-        "completion_prompt": request.completion_prompt,
-    }
 
 
 def longest_paths(result: PlanResult, task_names: Sequence[str], k: int) -> list[list[str]]:
@@ -171,25 +87,22 @@ def longest_paths(result: PlanResult, task_names: Sequence[str], k: int) -> list
     return paths
 
 
-class _Round:
-    """Ask (with grammar retries), check and plan once."""
+class _Asker:
+    """Asks the LLM once per round, with grammar retries; keeps the blacklist of the whole run."""
 
-    def __init__(self, scenario: Scenario, backend: Backend, options: LoopOptions) -> None:
-        self.scenario = scenario
+    def __init__(self, scenario: Scenario, backend: Backend, retries: int) -> None:
+        self.task = scenario.task
         self.backend = backend
-        self.options = options
-        self.names = [a.signature.underscored for a in scenario.task.actions]
+        self.retries = retries
         self.blacklist: list[str] = []
 
-    def ask(
-        self, request: Request, deadline: float = math.inf
-    ) -> tuple[Request, GrammarCheck | None, list[Request], list[str], float, str]:
+    def ask(self, request: Request, deadline: float) -> Exchange:
         prompts: list[Request] = []
         replies: list[str] = []
         seconds = 0.0
         check: GrammarCheck | None = None
         error = ""
-        for attempt in range(self.options.grammar_retries + 1):
+        for attempt in range(self.retries + 1):
             left = deadline - time.perf_counter()
             if left <= 0:
                 if not replies:
@@ -206,15 +119,139 @@ class _Round:
                 break
             seconds += reply.seconds
             replies.append(reply.text)
-            parsed = parse_reply(reply.text)
-            if "path" not in parsed.found:  # a base model continues after "Optimal Actions:"
-                parsed = parse_reply("Optimal Actions:" + reply.text)
-            check = check_reply(parsed, self.scenario.task)
-            self.blacklist.extend(n for n in check.unknown if n not in self.blacklist)
-            if check.clean or not check.problems or attempt == self.options.grammar_retries:
+            check = self.check(reply.text)
+            if check.clean or not check.problems or attempt == self.retries:
                 break  # (no retry request after the last attempt: it would never be answered)
             request = retry_request(request, reply.text, check.problems, self.blacklist)
-        return request, check, prompts, replies, seconds, error
+        return Exchange(request, tuple(prompts), tuple(replies), check, seconds, error)
+
+    def check(self, text: str) -> GrammarCheck:
+        """The grammar check of a reply; its unknown names join the blacklist."""
+        parsed = parse_reply(text)
+        if "path" not in parsed.found:  # a base model continues after "Optimal Actions:"
+            parsed = parse_reply("Optimal Actions:" + text)
+        check = check_reply(parsed, self.task)
+        self.blacklist.extend(n for n in check.unknown if n not in self.blacklist)
+        return check
+
+
+class _Loop:
+    """One run of the loop: its state between rounds and its steps (round, fallback)."""
+
+    def __init__(
+        self, scenario: Scenario, goal: Goal, backend: Backend, pool: Sequence[Record], options: LoopOptions
+    ) -> None:
+        started = time.perf_counter()
+        self.deadline = math.inf if options.time_limit is None else started + options.time_limit
+        self.scenario, self.task, self.goal = scenario, scenario.task, goal
+        self.pool, self.options = pool, options
+        self.prompt = options.prompt.for_backend(backend.prompt_style)
+        self.config = planner_config(options.planner, heuristic=options.heuristic)
+        self.asker = _Asker(scenario, backend, options.grammar_retries)
+        self.names = [a.signature.underscored for a in self.task.actions]
+        self.rounds: list[RoundRecord] = []
+        self.llm_seconds = self.planning_seconds = 0.0
+        #: The hints of the latest round in the space of every round so far (the space only grows).
+        self.space: ResolvedHints = resolve_hints(self.task, Hints())
+        self.last: PlanResult | None = None
+        self.request = build_request(self.task, str(goal), pool, self.prompt, scenario=scenario.name)
+
+    def left(self) -> float:
+        return self.deadline - time.perf_counter()
+
+    def run(self) -> LoopResult:
+        for number in range(self.options.feedback_rounds + 1):
+            if self.left() <= 0:
+                log.info("the time limit ran out before round %d", number)
+                break
+            result = self.round(number)
+            if result is None:
+                break
+            if result.solved:
+                return self.result(Outcome.after(number), result)
+        return self.fallback()
+
+    def round(self, number: int) -> PlanResult | None:
+        """Ask, check, prune and plan once; ``None`` when the round planned nothing (the asking ends)."""
+        if self.last is not None:
+            self.request = feedback_request(
+                self.request, self.rounds[-1].replies[-1], self.feedback(), self.pool, self.prompt, self.asker.blacklist
+            )
+        exchange = self.asker.ask(self.request, self.deadline)
+        self.request = exchange.request
+        self.llm_seconds += exchange.seconds
+        if not exchange.replies:
+            # Nothing new was said: the space is the last round's (already searched), so the
+            # asking ends here and the loop goes to the fallback.
+            self.rounds.append(RoundRecord.of(number, exchange, tuple(self.asker.blacklist)))
+            return None
+        self.space = self.space.grown_by(self.task, resolve_hints(self.task, exchange.hints))
+        space = self.task.restricted(pruned_action_space(self.task, self.space))
+        left = self.left()
+        if left <= 0:
+            log.info("the time limit ran out before round %d could plan", number)
+            return None
+        started = time.perf_counter()
+        # Declared mutexes speed the rounds up; without a fallback, a failed round's verdict is the
+        # answer, so it must not rest on them (confirmed_search re-decides it without them).
+        result = (search if self.options.fallback else confirmed_search)(
+            self.task,
+            self.goal,
+            space,
+            self.config,
+            mutexes=self.scenario.mutexes,
+            hints=self.space,
+            limits=Limits(time_s=min(self.options.round_time_limit, left)),
+        )
+        self.planning_seconds += time.perf_counter() - started
+        self.rounds.append(RoundRecord.of(number, exchange, tuple(self.asker.blacklist), len(space), result))
+        self.last = result
+        return result
+
+    def feedback(self) -> Feedback:
+        """What the last round's failure tells the model: its longest paths and what its space left out."""
+        assert self.last is not None
+        return Feedback(
+            tuple(tuple(path) for path in longest_paths(self.last, self.names, self.options.top_k)),
+            tuple(sorted(set(self.task.action_predicates) - self.space.predicates)),
+            tuple(sorted(set(self.task.objects) - self.space.objects)),
+        )
+
+    def fallback(self) -> LoopResult:
+        """The full action space with the LLM-free heuristic, in the time that is left."""
+        left = self.left()
+        if not self.options.fallback:
+            return self.result(Outcome.FAILED, self.last or self.no_round())
+        if left <= 0:
+            message = "the time limit ran out before the fallback"
+            if self.last is not None:
+                return self.result(Outcome.FAILED, replace(self.last, status=Status.TIMEOUT, message=message))
+            return self.result(
+                Outcome.FAILED, PlanResult(Status.TIMEOUT, self.options.planner, self.goal, message=message)
+            )
+        started = time.perf_counter()
+        # The fallback prunes with proved mutexes only: declared ones could cut off the only solution.
+        final = plan(
+            self.task,
+            self.goal,
+            self.options.planner,
+            hints=self.space,
+            space="full",
+            mutexes=self.scenario.mutexes.proved_only(),
+            heuristic=self.options.fallback_heuristic,
+            limits=Limits(time_s=min(self.options.fallback_time_limit, left)),
+        )
+        self.planning_seconds += time.perf_counter() - started
+        return self.result(Outcome.FALLBACK if final.solved else Outcome.FAILED, final)
+
+    def no_round(self) -> PlanResult:
+        """The result when no round planned and there is no fallback: no verdict, not a proof."""
+        error = self.rounds[-1].error if self.rounds else ""
+        message = f"no round planned: {error}" if error else "no round ran"
+        return PlanResult(Status.NOT_PLANNED, self.options.planner, self.goal, message=message)
+
+    def result(self, outcome: Outcome, final: PlanResult) -> LoopResult:
+        return LoopResult(outcome, final, tuple(self.rounds), self.llm_seconds, self.planning_seconds)
 
 
 def run_hbtp(
@@ -225,128 +262,5 @@ def run_hbtp(
     options: LoopOptions = LoopOptions(),
 ) -> LoopResult:
     """Plan ``goal`` with LLM hints, reflective feedback and the full-space fallback."""
-    started_run = time.perf_counter()
-    deadline = math.inf if options.time_limit is None else started_run + options.time_limit
-    task = scenario.task
-    resolved = task.resolve_goal(goal) if isinstance(goal, str) else goal
-    goal_text = str(resolved)
-    config = planner_config(options.planner, heuristic=options.heuristic)
-    asker = _Round(scenario, backend, options)
-    rounds: list[RoundRecord] = []
-    llm_total = planning_total = 0.0
-    predicates: set[str] = set()
-    objects: set[str] = set()
-    request = build_request(task, goal_text, pool, options.prompt, scenario=scenario.name)
-    last: PlanResult | None = None
-    hints = Hints()
-    for round_number in range(options.feedback_rounds + 1):
-        if time.perf_counter() >= deadline:
-            log.info("the time limit ran out before round %d", round_number)
-            break
-        if round_number > 0 and last is not None:
-            all_predicates = set(task.action_predicates)
-            request = feedback_request(
-                request,
-                "\n".join(rounds[-1].replies[-1:]),
-                longest_paths(last, asker.names, options.top_k),
-                sorted(all_predicates - predicates),
-                sorted(set(task.objects) - objects),
-                task,
-                pool,
-                options.prompt.examples + 2 * round_number,
-                options.prompt.exclude_same_goal,
-                asker.blacklist,
-                options.prompt.retrieval,
-            )
-        request, check, prompts, replies, llm_seconds, error = asker.ask(request, deadline)
-        llm_total += llm_seconds
-        if error and not replies:
-            # Nothing new was said: the space is the last round's (already searched), so the
-            # asking ends here and the loop goes to the fallback.
-            rounds.append(
-                RoundRecord(
-                    round_number,
-                    tuple(_prompt_record(p) for p in prompts),
-                    (),
-                    Hints(),
-                    (),
-                    tuple(asker.blacklist),
-                    0,
-                    "skipped",
-                    0,
-                    llm_seconds,
-                    0.0,
-                    error,
-                )
-            )
-            break
-        if check is not None:
-            hints = check.hints
-        resolved_hints = resolve_hints(task, hints)
-        path_actions = [task.actions[i] for i in resolved_hints.path]
-        predicates |= set(resolved_hints.predicates) | {a.predicate for a in path_actions}
-        objects |= set(resolved_hints.objects) | {o for a in path_actions for o in a.objects}
-        accumulated = resolve_hints(task, Hints(hints.path, tuple(sorted(predicates)), tuple(sorted(objects))))
-        space = task.restricted(pruned_action_space(task, accumulated))
-        left = deadline - time.perf_counter()
-        if left <= 0:
-            log.info("the time limit ran out before round %d could plan", round_number)
-            break
-        started = time.perf_counter()
-        # Declared mutexes speed the rounds up; without a fallback, a failed round's verdict is the
-        # answer, so it must not rest on them (confirmed_search re-decides it without them).
-        result = (search if options.fallback else confirmed_search)(
-            task,
-            resolved,
-            space,
-            config,
-            mutexes=scenario.mutexes,
-            hints=accumulated,
-            limits=Limits(time_s=min(options.round_time_limit, left)),
-        )
-        planning_total += time.perf_counter() - started
-        rounds.append(
-            RoundRecord(
-                round_number,
-                tuple(_prompt_record(p) for p in prompts),
-                tuple(replies),
-                hints,
-                check.repairs if check is not None else (),
-                tuple(asker.blacklist),
-                len(space),
-                result.status.value,
-                result.stats.explored,
-                llm_seconds,
-                result.stats.time_s,
-                error,
-            )
-        )
-        last = result
-        if result.solved:
-            return LoopResult(round_label(round_number), result, tuple(rounds), llm_total, planning_total)
-    left = deadline - time.perf_counter()
-    if not options.fallback:
-        message = f"no round planned: {rounds[-1].error}" if rounds and rounds[-1].error else "no round ran"
-        final = last or PlanResult(Status.UNSOLVABLE, options.planner, resolved, message=message)
-        return LoopResult("failed", final, tuple(rounds), llm_total, planning_total)
-    if left <= 0:
-        message = "the time limit ran out before the fallback"
-        if last is not None:
-            final = replace(last, status=Status.TIMEOUT, message=message)
-        else:
-            final = PlanResult(Status.TIMEOUT, options.planner, resolved, message=message)
-        return LoopResult("failed", final, tuple(rounds), llm_total, planning_total)
-    started = time.perf_counter()
-    # The fallback prunes with proved mutexes only: declared ones could cut off the only solution.
-    final = plan(
-        task,
-        resolved,
-        options.planner,
-        hints=Hints(hints.path, tuple(sorted(predicates)), tuple(sorted(objects))),
-        space="full",
-        mutexes=scenario.mutexes.proved_only(),
-        heuristic=options.fallback_heuristic,
-        limits=Limits(time_s=min(options.fallback_time_limit, left)),
-    )
-    planning_total += time.perf_counter() - started
-    return LoopResult("fallback" if final.solved else "failed", final, tuple(rounds), llm_total, planning_total)
+    resolved = scenario.task.resolve_goal(goal) if isinstance(goal, str) else goal
+    return _Loop(scenario, resolved, backend, pool, options).run()

@@ -7,17 +7,21 @@ correctness: they only order the search and choose the action space.
 
 from __future__ import annotations
 
+import hashlib
 import logging
+import random
 from collections import Counter
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import TypeVar
 
-from hbtp.datasets.records import Record
 from hbtp.errors import InputError
 from hbtp.logic.atoms import parse_atom
 from hbtp.logic.task import GroundTask
 
 log = logging.getLogger(__name__)
+
+_T = TypeVar("_T")
 
 
 @dataclass(frozen=True)
@@ -31,6 +35,14 @@ class Hints:
     @property
     def empty(self) -> bool:
         return not (self.path or self.predicates or self.objects)
+
+    @classmethod
+    def from_plan(cls, task: GroundTask, actions: Iterable[int]) -> Hints:
+        """p̂ = the plan's actions (``Walk(apple)``), Q̂ and Ô = their predicates and objects, in order of first use."""
+        plan = [task.actions[i] for i in actions]
+        predicates = tuple(dict.fromkeys(a.predicate for a in plan))
+        objects = tuple(dict.fromkeys(o for a in plan for o in a.objects))
+        return cls(tuple(a.name for a in plan), predicates, objects)
 
 
 @dataclass(frozen=True)
@@ -46,6 +58,23 @@ class ResolvedHints:
     def owed(self) -> dict[int, int]:
         """How many times each action of p̂ may be discounted along one search path: I(p̂, a)."""
         return dict(Counter(self.path))
+
+    def space(self, task: GroundTask) -> ResolvedHints:
+        """The same p̂ with Q⁻ = Q̂ ∪ Q(p̂) and O⁻ = Ô ∪ O(p̂): the names the pruned space keeps."""
+        path_actions = [task.actions[i] for i in self.path]
+        return ResolvedHints(
+            self.path,
+            self.predicates | {a.predicate for a in path_actions},
+            self.objects | {o for a in path_actions for o in a.objects},
+            self.unknown,
+        )
+
+    def grown_by(self, task: GroundTask, newer: ResolvedHints) -> ResolvedHints:
+        """``newer``'s p̂ in the union of both spaces (the feedback rounds': the space only grows)."""
+        mine, theirs = self.space(task), newer.space(task)
+        return ResolvedHints(
+            newer.path, mine.predicates | theirs.predicates, mine.objects | theirs.objects, newer.unknown
+        )
 
 
 def resolve_hints(task: GroundTask, hints: Hints) -> ResolvedHints:
@@ -82,10 +111,10 @@ def resolve_hints(task: GroundTask, hints: Hints) -> ResolvedHints:
 
 def pruned_action_space(task: GroundTask, hints: ResolvedHints) -> tuple[int, ...]:
     """A⁻ = (Q⁻ × O⁻) ∩ A with Q⁻ = Q̂ ∪ Q(p̂) and O⁻ = Ô ∪ O(p̂): every argument must be in O⁻."""
-    path_actions = [task.actions[i] for i in hints.path]
-    predicates = hints.predicates | {a.predicate for a in path_actions}
-    objects = hints.objects | {o for a in path_actions for o in a.objects}
-    return tuple(a.index for a in task.actions if a.predicate in predicates and all(o in objects for o in a.objects))
+    space = hints.space(task)
+    return tuple(
+        a.index for a in task.actions if a.predicate in space.predicates and all(o in space.objects for o in a.objects)
+    )
 
 
 def hints_from_names(path: Iterable[str] = (), predicates: Iterable[str] = (), objects: Iterable[str] = ()) -> Hints:
@@ -99,6 +128,32 @@ def hints_from_names(path: Iterable[str] = (), predicates: Iterable[str] = (), o
     return Hints(tuple(normalised), tuple(p.strip() for p in predicates), tuple(o.strip() for o in objects))
 
 
-def hints_from_record(record: Record) -> Hints:
-    """A dataset record's plan, vital predicates and objects as hints (the oracle of the benchmarks)."""
-    return hints_from_names(record.optimal_actions, record.vital_predicates, record.vital_objects)
+@dataclass(frozen=True)
+class PathNoise:
+    """Errors in a heuristic path (the paper's error-tolerance study, Fig. 4): each action of the
+    right path is kept with probability ``correct``, and ``round(error * len(path))`` wrong ones are
+    inserted at random places.
+
+    The one noise model of hbtp: Figure 4 applies it to the records' plans, the ``noisy-oracle``
+    backend to the optimal plans. Seeded by :func:`seeded_random`, so reruns give the same paths.
+    """
+
+    correct: float = 1.0
+    error: float = 0.0
+
+    def scaled(self, factor: float) -> PathNoise:
+        """``factor`` times the noise: that fraction of the drops and of the insertions."""
+        return PathNoise(1.0 - (1.0 - self.correct) * factor, self.error * factor)
+
+    def apply(self, path: Sequence[_T], wrong: Sequence[_T], rng: random.Random) -> list[_T]:
+        """``path`` with the noise; the inserted actions are drawn from ``wrong`` (none when it is empty)."""
+        noisy = [item for item in path if rng.random() < self.correct]
+        for _ in range(round(self.error * len(path)) if wrong else 0):
+            noisy.insert(rng.randrange(len(noisy) + 1), rng.choice(wrong))
+        return noisy
+
+
+def seeded_random(*parts: object) -> random.Random:
+    """A random generator seeded by ``parts`` (their text joined by ``|``), the same in every process."""
+    digest = hashlib.sha256("|".join(map(str, parts)).encode()).digest()
+    return random.Random(int.from_bytes(digest[:8], "big"))

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Protocol
 
-from hbtp.datasets.records import Record
 from hbtp.domains.mutex import Mutexes
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError, PlanningError
@@ -30,18 +30,22 @@ def optimal_plan(
 
 def oracle_hints(task: GroundTask, goal: Goal, mutexes: Mutexes | None = None, limits: Limits | None = None) -> Hints:
     """p̂ = an optimal plan, Q̂ and Ô = its action predicates and objects."""
-    actions = [task.actions[i] for i in optimal_plan(task, goal, mutexes, limits)]
-    predicates = tuple(dict.fromkeys(a.predicate for a in actions))
-    objects = tuple(dict.fromkeys(o for a in actions for o in a.objects))
-    return Hints(tuple(a.name for a in actions), predicates, objects)
+    return Hints.from_plan(task, optimal_plan(task, goal, mutexes, limits))
 
 
-def optimal_cost_function(scenario: Scenario, limits: Limits | None = None) -> Callable[[Record], int | None]:
+class HasGoal(Protocol):
+    """Anything with a goal text (a dataset record)."""
+
+    @property
+    def goal(self) -> str: ...
+
+
+def optimal_cost_function(scenario: Scenario, limits: Limits | None = None) -> Callable[[HasGoal], int | None]:
     """Record -> the optimal cost of its goal (``None`` when unknown): OBTEA with the landmark
     heuristic over the full action space, pruning only with *proved* mutexes."""
     mutexes = scenario.mutexes.proved_only()
 
-    def optimal_cost(record: Record) -> int | None:
+    def optimal_cost(record: HasGoal) -> int | None:
         try:
             result = plan(
                 scenario.task, record.goal, "obtea", space="full", mutexes=mutexes, heuristic="lm", limits=limits

@@ -8,8 +8,7 @@ import time
 
 from hbtp.datasets.records import Record
 from hbtp.errors import BackendError
-from hbtp.llm.backend import Backend, Reply, Request
-from hbtp.llm.backends.oracle import format_reply
+from hbtp.llm.backend import Backend, PromptStyle, Reply, Request
 from hbtp.logic.atoms import parse_conjunction
 
 
@@ -22,11 +21,13 @@ class FirstReplyBackend:
         self.name = "hints-from" + (f"+{then.name}" if then is not None else "")
         self.replies: dict[frozenset[str], str] = {}
         for record in records:
-            self.replies.setdefault(
-                _goal_key(record.goal),
-                format_reply(list(record.optimal_actions), list(record.vital_predicates), list(record.vital_objects)),
-            )
+            self.replies.setdefault(_goal_key(record.goal), record.reply_block())
         self.then = then
+
+    @property
+    def prompt_style(self) -> PromptStyle:
+        """The style of the backend that answers the later rounds (chat without one)."""
+        return self.then.prompt_style if self.then is not None else PromptStyle.CHAT
 
     def complete(self, request: Request) -> Reply:
         if request.round == 0 and request.attempt == 0:

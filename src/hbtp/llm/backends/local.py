@@ -36,7 +36,7 @@ from types import ModuleType, TracebackType
 from typing import Any
 
 from hbtp.errors import BackendError
-from hbtp.llm.backend import Reply, Request
+from hbtp.llm.backend import PromptStyle, Reply, Request
 
 log = logging.getLogger(__name__)
 
@@ -302,6 +302,8 @@ class LocalBackend:
     prompt always gets the same answer. Safe to call from several threads (llama.cpp queues the
     requests).
     """
+
+    prompt_style = PromptStyle.COMPLETION
 
     def __init__(
         self,

@@ -42,7 +42,7 @@ from typing import Any, TypeVar
 from urllib.parse import urlsplit
 
 from hbtp.errors import BackendError
-from hbtp.llm.backend import Reply, Request
+from hbtp.llm.backend import PromptStyle, Reply, Request
 from hbtp.llm.redact import redact, remember_secret
 
 log = logging.getLogger(__name__)
@@ -222,6 +222,11 @@ class OpenAIBackend:
         self._client: Any = self._new_client()
 
     # ------------------------------------------------------------------ public API
+    @property
+    def prompt_style(self) -> PromptStyle:
+        """Completion with ``use_completions`` (a base model), else chat."""
+        return PromptStyle.COMPLETION if self.use_completions else PromptStyle.CHAT
+
     def complete(self, request: Request) -> Reply:
         """Ask the server; the reply's ``seconds`` include retries, its ``meta`` the model and retry count.
 

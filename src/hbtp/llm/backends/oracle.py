@@ -1,36 +1,31 @@
 """Backends that answer from the optimal plan instead of a model.
 
 ``oracle`` replies with an optimal plan (OBTEA with the landmark heuristic) in the datasets' format.
-``noisy-oracle`` drops a fraction of its actions and inserts wrong ones, seeded per goal, for the
-paper's error-tolerance study (Fig. 4); on feedback rounds it answers again with half the noise, a
-simple stand-in for a model that learns from the feedback.
+``noisy-oracle`` applies :class:`~hbtp.planning.hints.PathNoise` to it (drops a fraction of its
+actions and inserts wrong ones), seeded per goal, for the paper's error-tolerance study (Fig. 4); on
+feedback rounds it answers again with half the noise, a simple stand-in for a model that learns from
+the feedback.
 """
 
 from __future__ import annotations
 
-import hashlib
-import random
 import time
+from collections.abc import Sequence
 
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import BackendError, HbtpError
-from hbtp.llm.backend import Reply, Request
+from hbtp.llm.backend import PromptStyle, Reply, Request
+from hbtp.llm.parse import hints_reply
+from hbtp.planning.hints import Hints, PathNoise, seeded_random
 from hbtp.planning.limits import Limits
 from hbtp.planning.oracle import optimal_plan
-
-
-def format_reply(names: list[str], predicates: list[str], objects: list[str]) -> str:
-    return (
-        f"Optimal Actions: {', '.join(names)}\n"
-        f"Vital Action Predicates: {', '.join(predicates)}\n"
-        f"Vital Objects: {', '.join(objects)}"
-    )
 
 
 class OracleBackend:
     """Answers with an optimal plan of the request's goal."""
 
     name = "oracle"
+    prompt_style = PromptStyle.CHAT
 
     def __init__(self, scenario: Scenario, time_limit: float = 60.0) -> None:
         self.scenario = scenario
@@ -47,14 +42,13 @@ class OracleBackend:
                 raise BackendError(f"the oracle has no plan for {goal!r}: {error}") from None
         return self._plans[goal]
 
+    def path(self, request: Request) -> Sequence[int]:
+        """The plan this backend answers ``request`` with."""
+        return self.optimal(request.goal)
+
     def complete(self, request: Request) -> Reply:
         started = time.perf_counter()
-        actions = [self.scenario.task.actions[i] for i in self.optimal(request.goal)]
-        text = format_reply(
-            [a.signature.underscored for a in actions],
-            list(dict.fromkeys(a.predicate for a in actions)),
-            list(dict.fromkeys(o for a in actions for o in a.objects)),
-        )
+        text = hints_reply(Hints.from_plan(self.scenario.task, self.path(request)))
         return Reply(text, time.perf_counter() - started)
 
     def close(self) -> None:
@@ -79,25 +73,14 @@ class NoisyOracleBackend(OracleBackend):
         self.drop = drop
         self.insert = insert
         self.seed = seed
+        self.noise = PathNoise(correct=1.0 - drop, error=insert)
 
     def noisy_path(self, goal: str, round_: int) -> list[int]:
+        """The optimal plan of ``goal`` with the noise, halved on each feedback round."""
         optimal = self.optimal(goal)
-        factor = 0.5**round_
-        digest = hashlib.sha256(f"{self.seed}|{goal}|{round_}".encode()).digest()
-        rng = random.Random(int.from_bytes(digest[:8], "big"))
-        keep = [a for a in optimal if rng.random() >= self.drop * factor]
-        count = round(self.insert * factor * len(optimal))
-        wrong_pool = [a.index for a in self.scenario.task.actions if a.index not in set(optimal)]
-        for _ in range(min(count, len(wrong_pool))):
-            keep.insert(rng.randrange(len(keep) + 1), rng.choice(wrong_pool))
-        return keep
+        chosen = set(optimal)
+        wrong = [a.index for a in self.scenario.task.actions if a.index not in chosen]
+        return self.noise.scaled(0.5**round_).apply(optimal, wrong, seeded_random(self.seed, goal, round_))
 
-    def complete(self, request: Request) -> Reply:
-        started = time.perf_counter()
-        actions = [self.scenario.task.actions[i] for i in self.noisy_path(request.goal, request.round)]
-        text = format_reply(
-            [a.signature.underscored for a in actions],
-            list(dict.fromkeys(a.predicate for a in actions)),
-            list(dict.fromkeys(o for a in actions for o in a.objects)),
-        )
-        return Reply(text, time.perf_counter() - started)
+    def path(self, request: Request) -> Sequence[int]:
+        return self.noisy_path(request.goal, request.round)

@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 from hbtp.errors import BackendError
-from hbtp.llm.backend import Backend, Reply, Request
+from hbtp.llm.backend import Backend, PromptStyle, Reply, Request
 
 
 def _read(path: Path) -> dict[str, str]:
@@ -42,6 +42,8 @@ def _read(path: Path) -> dict[str, str]:
 
 class ReplayBackend:
     name = "replay"
+    #: A request's key leaves out what the style changes (``max_tokens``), so any style replays.
+    prompt_style = PromptStyle.CHAT
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
@@ -72,6 +74,10 @@ class RecordingBackend:
         self.path = Path(path)
         self.table = _read(self.path)
         self._append("")  # fail now, not after the first (maybe slow) answer, when the file cannot be written
+
+    @property
+    def prompt_style(self) -> PromptStyle:
+        return self.inner.prompt_style
 
     def complete(self, request: Request) -> Reply:
         key = request.key()
