@@ -15,9 +15,10 @@ import hbtp.cli
 from hbtp.bt import Action, Condition, Fallback, Node, Sequence
 from hbtp.bt.jsonio import tree_to_json
 from hbtp.cli import EXIT_INPUT, EXIT_INTERNAL, EXIT_NOT_SOLVED, EXIT_OK, main
-from hbtp.cli.exit_codes import ERROR_PREFIX, ExitCode, error_line
+from hbtp.cli.exit_codes import ERROR_PREFIX, ExitCode, error_line, plan_exit_code
 from hbtp.cli.run_command import EXIT_FAILED, abbreviate_steps, run_command
 from hbtp.domains import Scenario
+from hbtp.planning.result import Status
 
 GOAL = "IsIn_apple_fridge & IsClose_fridge"
 
@@ -145,3 +146,9 @@ def test_a_bare_hbtp_prints_the_help(capsys: pytest.CaptureFixture[str]) -> None
     assert err.startswith("Usage: hbtp")
     assert "Commands:" in err
     assert ERROR_PREFIX not in err
+
+
+@pytest.mark.parametrize("status", list(Status))
+def test_a_planning_status_has_one_exit_code(status: Status) -> None:
+    expected = {Status.SOLVED: ExitCode.OK, Status.ERROR: ExitCode.INTERNAL}.get(status, ExitCode.NOT_SOLVED)
+    assert plan_exit_code(status) is expected

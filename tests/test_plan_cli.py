@@ -13,14 +13,14 @@ from typing import Any
 
 import pytest
 
-from hbtp.bt import tree_of
+from hbtp.bt import Fallback, Sequence, tree_of
 from hbtp.bt.jsonio import tree_from_json, tree_to_json
 from hbtp.cli import EXIT_INPUT, EXIT_NOT_SOLVED, EXIT_OK, main
 from hbtp.datasets import load_dataset, write_text
 from hbtp.domains import Scenario, load_scenario, scenario_names
 from hbtp.errors import InputError
-from hbtp.llm.parse import parse_reply
-from hbtp.planning import Hints, hints_from_record, plan, pruned_action_space, resolve_hints
+from hbtp.llm.parse import hints_from_record, parse_reply
+from hbtp.planning import Hints, plan, pruned_action_space, resolve_hints
 from hbtp.planning.oracle import oracle_hints
 from helpers import run_tree
 
@@ -323,6 +323,7 @@ def test_out_writes_a_json_tree_that_reads_back_to_the_same_tree(
     )
     assert code == EXIT_OK
     path_root, _ = tree_from_json(path_out.read_text(encoding="utf-8"), robothow.task)
+    assert isinstance(path_root, Sequence | Fallback)
     assert len(path_root.children) == 8  # the goal and 7 steps
 
 

@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 
 from hbtp.domains import Scenario, load_pddl_scenario, load_scenario, scenario_names
-from hbtp.domains.scenarios import read_mutex_file
+from hbtp.domains.scenarios import ScenarioOptions, read_mutex_file, read_pddl
 from hbtp.errors import InputError
 from hbtp.logic import GroundTask
 
@@ -276,8 +276,7 @@ def test_load_pddl_scenario_from_the_shipped_files(robothow_small: Scenario) -> 
     scenario = load_pddl_scenario(
         robothow_small.domain_file,
         robothow_small.problem_file,
-        keep_fluent=["IsStanding"],
-        objects=["all_objects"],
+        ScenarioOptions(keep_fluent=["IsStanding"], objects=["all_objects"]),
     )
     assert scenario.name == "robothow-small"  # the problem's name
     assert scenario.title == "robothow-small"
@@ -287,10 +286,23 @@ def test_load_pddl_scenario_from_the_shipped_files(robothow_small: Scenario) -> 
 
 
 def test_load_pddl_scenario_without_options_uses_the_problem_objects(robothow_small: Scenario) -> None:
-    scenario = load_pddl_scenario(robothow_small.domain_file, robothow_small.problem_file, name="rhs")
+    scenario = load_pddl_scenario(robothow_small.domain_file, robothow_small.problem_file, ScenarioOptions(name="rhs"))
     assert scenario.name == "rhs"
     assert len(scenario.task.objects) == 16  # the problem's :objects; faucet is a domain constant
     assert "IsStanding" not in scenario.task.predicates
+
+
+def test_a_scenario_keeps_the_pddl_it_was_grounded_from(robothow_small: Scenario) -> None:
+    scenario = load_pddl_scenario(robothow_small.domain_file, robothow_small.problem_file, ScenarioOptions(name="rhs"))
+    assert scenario.parsed is not None
+    assert scenario.pddl is scenario.parsed
+    assert scenario.pddl == read_pddl(robothow_small.domain_file, robothow_small.problem_file)
+
+
+def test_a_shipped_scenario_reads_its_pddl_when_asked(robothow_small: Scenario) -> None:
+    # loaded from the disk cache or from its files: the same lifted domain and problem either way
+    assert robothow_small.pddl == read_pddl(robothow_small.domain_file, robothow_small.problem_file)
+    assert robothow_small.pddl is robothow_small.pddl  # read once
 
 
 def test_read_mutex_file(tmp_path: Path) -> None:

@@ -11,16 +11,17 @@ from typing import Any
 import pytest
 from click.testing import CliRunner
 
-from hbtp import validation
 from hbtp.cli import validate_command
 from hbtp.cli.validate_command import validate_optimal
 from hbtp.domains import Scenario, load_scenario, write_grounded
 from hbtp.errors import BackendError, InputError
 from hbtp.validation import (
     INSTALL_HINT,
+    RunStatus,
     _read_plan_file,
     choose_engine,
     compare_optimal,
+    decided,
     fast_downward_cost,
     run_fast_downward,
 )
@@ -75,7 +76,7 @@ def test_unified_planning_route_reads_the_export_once_per_task(
         return original(self, domain, problem)
 
     monkeypatch.setattr(PDDLReader, "parse_problem", counting)
-    monkeypatch.setattr(validation, "_parsed", {})
+    robothow_small.task.forget_derived()  # the parsed problem is kept with the task: start without it
     assert choose_engine(robothow_small.task) == "unified-planning"
     rows = compare_optimal("robothow-small", limit=3, time_limit=60, engine="unified-planning")
     _check_rows(rows, 3)
@@ -89,7 +90,7 @@ def test_keyword_predicate_and_shared_names_pass_through_unified_planning(robowa
     # RoboWaiter's predicate Exists is a PDDL keyword; its objects On/Off share a name with a predicate.
     task = robowaiter.task
     run = run_fast_downward(task, task.resolve_goal("Exists_Coffee"), engine="unified-planning")
-    assert run.status == "optimal", run.message
+    assert run.status is RunStatus.OPTIMAL, run.message
     assert run.plan == ("Make(Coffee)",)
     assert run.cost == task.action("Make_Coffee").cost
 
@@ -129,8 +130,21 @@ def test_plan_file_is_read_with_its_cost(tmp_path: Path) -> None:
     plan = tmp_path / "plan.txt"
     plan.write_text("(walk_apple)\n(rightgrab_apple)\n; cost = 12 (general cost)\n", encoding="utf-8")
     outcome = _read_plan_file(plan)
+    assert outcome.status is RunStatus.OPTIMAL
     assert outcome.names == ("walk_apple", "rightgrab_apple")
     assert outcome.reported_cost == 12
+
+
+def test_a_row_is_decided_when_both_planners_answered() -> None:
+    def row(obtea: str, fd: str) -> dict[str, str]:
+        return {"obtea_unpruned_status": obtea, "fd_status": fd}
+
+    assert decided(row("solved", "optimal"))
+    assert decided(row("unsolvable", "unsolvable"))
+    assert not decided(row("timeout", "optimal"))
+    assert not decided(row("solved", "timeout"))
+    assert not decided(row("solved", "error"))
+    assert [s.decided for s in RunStatus] == [True, True, False, False]
 
 
 def test_engine_choice(robothow_small: Scenario) -> None:

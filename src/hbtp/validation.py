@@ -8,8 +8,8 @@ Two ways to run Fast Downward, both from the ``up-fast-downward`` package:
 
 * ``unified-planning``: unified-planning's ``PDDLReader`` reads the files and
   ``OneshotPlanner(name="fast-downward-opt")`` solves them. The reader needs seconds for a few
-  hundred grounded actions and minutes for RobotHow's 7329, so the parsed problem is kept per
-  domain text and only the goal is replaced for the next record.
+  hundred grounded actions and minutes for RobotHow's 7329, so the parsed problem is kept with the
+  task and only the goal is replaced for the next record.
 * ``driver``: the Fast Downward driver shipped in ``up-fast-downward`` runs on the exported files
   directly (same build, same ``astar(lmcut())`` search): seconds even for RobotHow.
 
@@ -29,6 +29,7 @@ mutexes is reported.
 from __future__ import annotations
 
 import contextlib
+import enum
 import logging
 import math
 import os
@@ -39,7 +40,7 @@ import sys
 import tempfile
 import time
 import warnings
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -52,7 +53,7 @@ from hbtp.domains.mutex import Mutexes
 from hbtp.domains.pddl_writer import keyword_safe_predicates
 from hbtp.errors import BackendError, InputError
 from hbtp.logic.task import Goal, GroundAction, GroundTask
-from hbtp.planning import Limits, plan
+from hbtp.planning import Limits, Status, plan
 
 log = logging.getLogger(__name__)
 
@@ -71,19 +72,37 @@ COMPARE_TIME_LIMIT = 300.0
 _COST_LINE = re.compile(r";\s*cost\s*=\s*(\d+)")
 _UNSOLVABLE_CODES = (10, 11)  # Fast Downward's exit codes: proved unsolvable by the translator, the search
 _TIMEOUT_CODES = (21, 23, 24)
-_MAX_PARSED = 2
+_REACHED_TIME_LIMIT = "Fast Downward reached the time limit"
+
+
+class RunStatus(enum.Enum):
+    """How a Fast Downward run ended."""
+
+    OPTIMAL = "optimal"  # a plan, proved optimal
+    UNSOLVABLE = "unsolvable"  # proved
+    TIMEOUT = "timeout"
+    ERROR = "error"
+
+    @property
+    def decided(self) -> bool:
+        """Whether the run answered: an optimal cost or a proof that there is none."""
+        return self in (RunStatus.OPTIMAL, RunStatus.UNSOLVABLE)
+
+
+#: The OBTEA outcomes that answer: a cost (optimal: OBTEA with an admissible heuristic) or a proof.
+OBTEA_DECIDED = (Status.SOLVED, Status.UNSOLVABLE)
 
 
 @dataclass(frozen=True)
 class FastDownwardRun:
     """One Fast Downward run.
 
-    ``status`` is ``optimal`` (``cost`` and ``plan`` set), ``unsolvable`` (proved), ``timeout`` or
-    ``error`` (``message`` says why). ``plan`` holds hbtp's action names (``Walk(apple)``);
+    ``status`` is :attr:`~RunStatus.OPTIMAL` (``cost`` and ``plan`` set), ``UNSOLVABLE`` (proved),
+    ``TIMEOUT`` or ``ERROR`` (``message`` says why). ``plan`` holds hbtp's action names (``Walk(apple)``);
     ``time_s`` is the whole call: export, parsing and the planner; ``engine`` the way it ran.
     """
 
-    status: str
+    status: RunStatus
     cost: int | None = None
     plan: tuple[str, ...] = ()
     time_s: float = 0.0
@@ -94,7 +113,7 @@ class FastDownwardRun:
 class _Outcome(NamedTuple):
     """What a planner said, before the plan is checked: status, action names, reported cost, message."""
 
-    status: str
+    status: RunStatus
     names: tuple[str, ...] = ()
     reported_cost: int | None = None
     message: str = ""
@@ -104,7 +123,7 @@ class _Outcome(NamedTuple):
 class ObteaRun:
     """OBTEA's outcome on one goal: ``cost`` is D(T) (``None`` unless solved)."""
 
-    status: str
+    status: Status
     cost: int | None
     time_s: float
 
@@ -147,7 +166,7 @@ def run_fast_downward(
             key = domain_text + problem_text.split("(:goal", 1)[0]
             outcome = _solve_with_unified_planning(task, goal, key, problem_file, time_limit)
     elapsed = time.perf_counter() - started
-    if outcome.status != "optimal":
+    if outcome.status is not RunStatus.OPTIMAL:
         return FastDownwardRun(outcome.status, time_s=elapsed, engine=chosen, message=outcome.message)
     return _replay(task, goal, by_name, outcome, elapsed, chosen)
 
@@ -161,9 +180,9 @@ def fast_downward_cost(
     and on any other failure.
     """
     run = run_fast_downward(task, goal, time_limit=time_limit, engine=engine)
-    if run.status in ("optimal", "unsolvable"):
+    if run.status.decided:
         return run.cost
-    raise BackendError(f"Fast Downward failed ({run.status}): {run.message}")
+    raise BackendError(f"Fast Downward failed ({run.status.value}): {run.message}")
 
 
 def _replay(
@@ -179,7 +198,7 @@ def _replay(
         actions = [by_name[name.lower()] for name in outcome.names]
     except KeyError as missing:
         message = f"Fast Downward's plan has an unknown action {missing}"
-        return FastDownwardRun("error", time_s=elapsed, engine=engine, message=message)
+        return FastDownwardRun(RunStatus.ERROR, time_s=elapsed, engine=engine, message=message)
     readable = tuple(action.name for action in actions)
     state, applied = task.execute(actions)
     cost = sum(action.cost for action in actions)
@@ -189,8 +208,8 @@ def _replay(
     elif outcome.reported_cost is not None and outcome.reported_cost != cost:
         problem = f"Fast Downward reports cost {outcome.reported_cost}, its plan costs {cost} in hbtp's task"
     if problem:
-        return FastDownwardRun("error", plan=readable, time_s=elapsed, engine=engine, message=problem)
-    return FastDownwardRun("optimal", cost, readable, elapsed, engine)
+        return FastDownwardRun(RunStatus.ERROR, plan=readable, time_s=elapsed, engine=engine, message=problem)
+    return FastDownwardRun(RunStatus.OPTIMAL, cost, readable, elapsed, engine)
 
 
 def _actions_by_lowercase_name(task: GroundTask) -> dict[str, GroundAction]:
@@ -239,7 +258,7 @@ def _solve_with_driver(domain_file: Path, problem_file: Path, time_limit: float)
     except subprocess.TimeoutExpired:
         os.killpg(process.pid, signal.SIGKILL)  # the driver's own process group: translator and search
         process.communicate()
-        return _Outcome("timeout", message="Fast Downward did not stop at its time limit")
+        return _Outcome(RunStatus.TIMEOUT, message="Fast Downward did not stop at its time limit")
     return _driver_outcome(process.returncode, plan_file, output, errors)
 
 
@@ -247,11 +266,11 @@ def _driver_outcome(code: int, plan_file: Path, output: str, errors: str) -> _Ou
     if code == 0 and plan_file.is_file():
         return _read_plan_file(plan_file)
     if code in _UNSOLVABLE_CODES:
-        return _Outcome("unsolvable")
+        return _Outcome(RunStatus.UNSOLVABLE)
     if code in _TIMEOUT_CODES:
-        return _Outcome("timeout", message="Fast Downward reached the time limit")
+        return _Outcome(RunStatus.TIMEOUT, message=_REACHED_TIME_LIMIT)
     tail = " ".join((errors or output).split())[-500:]
-    return _Outcome("error", message=f"Fast Downward's driver exited with code {code}: {tail}")
+    return _Outcome(RunStatus.ERROR, message=f"Fast Downward's driver exited with code {code}: {tail}")
 
 
 def _read_plan_file(plan_file: Path) -> _Outcome:
@@ -265,13 +284,10 @@ def _read_plan_file(plan_file: Path) -> _Outcome:
             cost = int(found.group(1)) if found else cost
         elif line:
             names.append(line.strip("()").split()[0])
-    return _Outcome("optimal", tuple(names), cost)
+    return _Outcome(RunStatus.OPTIMAL, tuple(names), cost)
 
 
 # ------------------------------------------------------- unified-planning
-_parsed: dict[str, Any] = {}
-
-
 @contextlib.contextmanager
 def _up_environment() -> Iterator[Any]:
     """unified-planning's global environment, quiet and lenient about shared names, for one call.
@@ -297,7 +313,7 @@ def _solve_with_unified_planning(
     task: GroundTask, goal: Goal, key: str, problem_file: Path, time_limit: float
 ) -> _Outcome:
     """Read the files with unified-planning (once per ``key``: the text but the goal) and run ``fast-downward-opt``."""
-    from unified_planning.engines import PlanGenerationResultStatus as Status
+    from unified_planning.engines import PlanGenerationResultStatus as UpStatus
 
     try:
         with _up_environment() as environment:
@@ -305,28 +321,32 @@ def _solve_with_unified_planning(
             with environment.factory.OneshotPlanner(name=ENGINE) as planner:
                 result = planner.solve(problem, timeout=time_limit)
     except Exception as error:  # unified-planning raises many unrelated types
-        return _Outcome("error", message=f"unified-planning: {type(error).__name__}: {error}")
-    if result.status == Status.SOLVED_OPTIMALLY:
-        return _Outcome("optimal", tuple(instance.action.name for instance in result.plan.actions))
-    if result.status == Status.UNSOLVABLE_PROVEN:
-        return _Outcome("unsolvable")
-    if result.status == Status.TIMEOUT:
-        return _Outcome("timeout", message="Fast Downward reached the time limit")
+        return _Outcome(RunStatus.ERROR, message=f"unified-planning: {type(error).__name__}: {error}")
+    if result.status == UpStatus.SOLVED_OPTIMALLY:
+        return _Outcome(RunStatus.OPTIMAL, tuple(instance.action.name for instance in result.plan.actions))
+    if result.status == UpStatus.UNSOLVABLE_PROVEN:
+        return _Outcome(RunStatus.UNSOLVABLE)
+    if result.status == UpStatus.TIMEOUT:
+        return _Outcome(RunStatus.TIMEOUT, message=_REACHED_TIME_LIMIT)
     logs = " ".join(" ".join(m.message.split()) for m in result.log_messages or ())
-    return _Outcome("error", message=f"{result.status.name}: {logs[-500:]}")
+    return _Outcome(RunStatus.ERROR, message=f"{result.status.name}: {logs[-500:]}")
 
 
 def _problem_for_goal(task: GroundTask, goal: Goal, key: str, problem_file: Path) -> Any:
-    """The parsed problem with ``goal``: read from the files the first time, else a copy with a new goal."""
+    """The parsed problem with ``goal``: read from the files the first time, else a copy with a new goal.
+
+    The parsed problem is kept with ``task`` (:meth:`~hbtp.logic.task.GroundTask.derived`), one per
+    task: ``key``, the exported text but the goal, depends on the task alone.
+    """
     from unified_planning.io import PDDLReader
 
-    cached = _parsed.get(key)
+    parsed: dict[str, Any] = task.derived(_problem_for_goal, dict)
+    cached = parsed.get(key)
     if cached is None:
-        parsed = PDDLReader().parse_problem(str(problem_file.with_name("domain.pddl")), str(problem_file))
-        while len(_parsed) >= _MAX_PARSED:
-            del _parsed[next(iter(_parsed))]
-        _parsed[key] = parsed
-        return parsed.clone()
+        problem = PDDLReader().parse_problem(str(problem_file.with_name("domain.pddl")), str(problem_file))
+        parsed.clear()
+        parsed[key] = problem
+        return problem.clone()
     problem = cached.clone()
     problem.clear_goals()
     fluents = {fluent.name.lower(): fluent for fluent in problem.fluents}
@@ -347,11 +367,13 @@ def has_declared_mutexes(mutexes: Mutexes) -> bool:
 def run_obtea(task: GroundTask, goal: Goal, mutexes: Mutexes | None, time_limit: float) -> ObteaRun:
     """OBTEA on the full action space with the landmark heuristic."""
     result = plan(task, goal, "obtea", space="full", mutexes=mutexes, heuristic="lm", limits=Limits(time_s=time_limit))
-    return ObteaRun(result.status.value, result.cost if result.solved else None, result.stats.time_s)
+    return ObteaRun(result.status, result.cost if result.solved else None, result.stats.time_s)
 
 
-def _decided(status: str) -> bool:
-    return status in ("solved", "optimal", "unsolvable")
+def decided(row: Mapping[str, Any]) -> bool:
+    """Whether both OBTEA without mutexes and Fast Downward answered in a :func:`compare_record` row
+    (a cost or a proof; not a time limit or an error)."""
+    return Status(row["obtea_unpruned_status"]) in OBTEA_DECIDED and RunStatus(row["fd_status"]).decided
 
 
 def compare_record(
@@ -374,19 +396,21 @@ def compare_record(
         "record": record.id,
         "goal": str(goal),
         "obtea_cost": pruned.cost,
-        "obtea_status": pruned.status,
+        "obtea_status": pruned.status.value,
         "obtea_time_s": round(pruned.time_s, 4),
         "obtea_unpruned_cost": plain.cost,
-        "obtea_unpruned_status": plain.status,
+        "obtea_unpruned_status": plain.status.value,
         "obtea_unpruned_time_s": round(plain.time_s, 4),
         "fd_cost": fd.cost,
-        "fd_status": fd.status,
+        "fd_status": fd.status.value,
         "fd_time_s": round(fd.time_s, 4),
         "fd_engine": fd.engine,
         "fd_plan": list(fd.plan),
-        "match": _decided(plain.status) and _decided(fd.status) and plain.cost == fd.cost,
+        "match": plain.status in OBTEA_DECIDED and fd.status.decided and plain.cost == fd.cost,
         "declared_mutexes": has_declared_mutexes(scenario.mutexes),
-        "mutexes_change_optimum": _decided(pruned.status) and _decided(plain.status) and pruned.cost != plain.cost,
+        "mutexes_change_optimum": pruned.status in OBTEA_DECIDED
+        and plain.status in OBTEA_DECIDED
+        and pruned.cost != plain.cost,
     }
     if fd.message:
         row["fd_message"] = fd.message
@@ -440,12 +464,15 @@ __all__ = [
     "COMPARE_TIME_LIMIT",
     "ENGINES",
     "INSTALL_HINT",
+    "OBTEA_DECIDED",
     "Engine",
     "FastDownwardRun",
     "ObteaRun",
+    "RunStatus",
     "choose_engine",
     "compare_optimal",
     "compare_record",
+    "decided",
     "fast_downward_cost",
     "has_declared_mutexes",
     "iter_comparisons",

@@ -24,7 +24,8 @@ from hbtp.datasets import load_dataset, validate_records
 from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
 from hbtp.domains.scale import scaled_scenario
-from hbtp.planning import Limits, hints_from_record, plan
+from hbtp.llm.parse import hints_from_record
+from hbtp.planning import Limits, plan
 from hbtp.planning.heuristics import HeuristicName
 
 DATASET = "table1_robothow_100"
@@ -91,7 +92,9 @@ def run_fig3(config: Fig3Config, out: Path, execution: Execution = DEFAULT_EXECU
     return summary
 
 
-#: The scaled scenarios a process has built (the runs come ordered by scale).
+#: The scaled scenarios a worker process has built. A per-process cache, not a per-task table (it
+#: makes the task): building one takes seconds, and runs come ordered by scale, so two (the scale
+#: being run and the one before) bound the memory of a worker while sparing every rebuild.
 _scaled = functools.lru_cache(maxsize=2)(scaled_scenario)
 
 

@@ -10,11 +10,13 @@ the measured times, nothing else; summaries are computed in key order.
 Executors:
 
 - ``inline``: in this process, one run after the other (no isolation; for debugging and tests);
-- ``local``: ``jobs`` worker processes (:class:`concurrent.futures.ProcessPoolExecutor`);
+- ``local``: ``jobs`` worker processes (:class:`pebble.ProcessPool`, which stops a run at its time
+  limit and names the run whose worker died);
 - ``ray``: Ray tasks, on the cluster at ``RAY_ADDRESS`` or on a local Ray started for the run.
 
 With ``local`` and ``ray`` a run that exceeds ``kill_after`` seconds (a planner that ignores its own
-time limit, a hung LLM request) is killed with its worker and recorded as ``status: "killed"``.
+time limit, a hung LLM request) is killed with its worker and recorded as ``status: "killed"``; a
+run whose worker dies (out of memory, a crash in a native library) is recorded as ``"crashed"``.
 At most ``jobs`` runs are in flight, so a run's clock starts when a worker is free for it.
 """
 
@@ -23,14 +25,13 @@ from __future__ import annotations
 import logging
 import multiprocessing
 import os
-import signal
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
+from concurrent.futures import FIRST_COMPLETED, Future, wait
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
+from pebble import ProcessExpired, ProcessPool
 from tqdm import tqdm
 
 from hbtp.bench.results import ResultsFile
@@ -164,85 +165,53 @@ class _Progress:
         self.bar.close()
 
 
-def _kill_workers(pool: ProcessPoolExecutor) -> None:
-    """Kill the pool's processes (``ProcessPoolExecutor.kill_workers`` from Python 3.14 on)."""
-    kill = getattr(pool, "kill_workers", None)
-    if kill is not None:
-        kill()
-    else:
-        for process in list((getattr(pool, "_processes", None) or {}).values()):
-            if process.is_alive():
-                os.kill(process.pid, signal.SIGKILL)
-    pool.shutdown(wait=True, cancel_futures=True)
-
-
-def _new_pool(jobs: int) -> ProcessPoolExecutor:
+def _context() -> Any:
     # forkserver: workers start from a clean, single-threaded server process (no inherited threads
     # or model handles); each worker loads what its runs need once and caches it.
     method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
-    return ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context(method))
+    return multiprocessing.get_context(method)
 
 
 def _run_local(
     function: RunFunction, pending: Sequence[Work], results: ResultsFile, jobs: int, limit: float, bar: _Progress
 ) -> None:
+    """``jobs`` worker processes (a :class:`pebble.ProcessPool`): a run past ``limit`` seconds is
+    stopped with its worker, and a worker that dies is charged to the one run it was running; the
+    pool replaces either worker and the other runs go on undisturbed."""
     queue = list(reversed(pending))
-    # Runs in flight when a worker died: any of them may have killed it, so each runs again alone;
-    # one that kills its worker while alone is recorded as crashed.
-    suspects: list[Work] = []
-    pool = _new_pool(jobs)
     running: dict[Future[Any], tuple[Work, float]] = {}
-    alone = False
+    pool = ProcessPool(max_workers=jobs, context=_context())
     try:
-        while queue or suspects or running:
-            if suspects and not running:
-                item = suspects.pop()
-                bar.starting(item)
-                running[pool.submit(function, item.spec)] = (item, time.monotonic())
-                alone = True
-            while queue and not suspects and not alone and len(running) < jobs:
+        while queue or running:
+            while queue and len(running) < jobs:  # so a run's clock starts when a worker is free for it
                 item = queue.pop()
                 bar.starting(item)
-                running[pool.submit(function, item.spec)] = (item, time.monotonic())
-            nearest = min(started for _, started in running.values()) + limit
-            done, _ = wait(running, timeout=max(0.0, nearest - time.monotonic()), return_when=FIRST_COMPLETED)
-            broken = False
+                running[pool.schedule(function, (item.spec,), timeout=limit)] = (item, time.monotonic())
+            done, _ = wait(running, return_when=FIRST_COMPLETED)
             for future in done:
                 item, started = running.pop(future)
-                try:
-                    row = future.result()
-                except BrokenProcessPool:
-                    broken = True
-                    if alone:
-                        log.warning("run %s killed its worker process; recorded as crashed", item.key)
-                        _store(results, failed_rows(item, "crashed", time.monotonic() - started))
-                        bar.update(1)
-                    else:
-                        suspects.append(item)
-                    continue
-                _store(results, row)
+                _store(results, _local_rows(future, item, time.monotonic() - started, limit))
                 bar.update(1)
-            if not running:
-                alone = False
-            now = time.monotonic()
-            overdue = [f for f, (_, started) in running.items() if now - started >= limit]
-            if overdue or broken:
-                for future in overdue:
-                    item, started = running.pop(future)
-                    log.warning("run %s exceeded %.0f s; its worker was killed", item.key, limit)
-                    _store(results, failed_rows(item, "killed", now - started))
-                    bar.update(1)
-                # The other runs in flight lose their worker too: run them again.
-                (suspects if broken else queue).extend(item for item, _ in running.values())
-                running.clear()
-                alone = False
-                _kill_workers(pool)
-                pool = _new_pool(jobs)
     finally:
+        # pebble leaves stop() and close() unannotated
         if running:
-            _kill_workers(pool)
+            pool.stop()  # type: ignore[no-untyped-call]
         else:
-            pool.shutdown(wait=True)
+            pool.close()  # type: ignore[no-untyped-call]
+        pool.join()
+
+
+def _local_rows(future: Future[Any], item: Work, seconds: float, limit: float) -> dict[str, Any] | list[dict[str, Any]]:
+    """The run's rows; a killed or crashed run's known rows. Any other error reaches the caller."""
+    try:
+        rows: dict[str, Any] | list[dict[str, Any]] = future.result()
+    except TimeoutError:  # concurrent.futures.TimeoutError is TimeoutError since Python 3.11
+        log.warning("run %s exceeded %.0f s; its worker was killed", item.key, limit)
+        return failed_rows(item, "killed", seconds)
+    except ProcessExpired as error:
+        log.warning("run %s killed its worker process (exit code %s); recorded as crashed", item.key, error.exitcode)
+        return failed_rows(item, "crashed", seconds)
+    return rows
 
 
 def _run_ray(

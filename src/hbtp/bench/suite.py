@@ -38,12 +38,11 @@ from hbtp.bench.report import (
     write_report,
 )
 from hbtp.bench.results import read_json, write_json
-from hbtp.bench.robustness import SCENARIOS, run_robustness
+from hbtp.bench.robustness import SCENARIOS, RobustnessConfig, run_robustness
 from hbtp.bench.runner import DEFAULT_EXECUTION, Execution
 from hbtp.bench.table1 import Table1Config, run_table1, setting_label, write_table1_report
 from hbtp.bench.table2 import BackendRecipe, Table2Config, run_table2, write_table2_report
 from hbtp.errors import InputError
-from hbtp.llm.prompt import PromptOptions
 from hbtp.pipeline import LoopOptions
 
 log = logging.getLogger(__name__)
@@ -106,7 +105,7 @@ def _table1(config: SuiteConfig, recipe: BackendRecipe, out: Path, execution: Ex
 
 
 def _table2(config: SuiteConfig, recipe: BackendRecipe, out: Path, execution: Execution) -> tuple[Any, list[str]]:
-    loop = LoopOptions(prompt=PromptOptions(style="completion" if recipe.llm == "local" else "chat"))
+    loop = LoopOptions()  # the prompt style is the backend's own
     rows = []
     for name in SCENARIOS:
         table2 = Table2Config(
@@ -135,8 +134,8 @@ def _fig4(config: SuiteConfig, recipe: BackendRecipe, out: Path, execution: Exec
 
 
 def _robustness(config: SuiteConfig, recipe: BackendRecipe, out: Path, execution: Execution) -> tuple[Any, list[str]]:
-    quick: dict[str, Any] = {"runs": 5, "limit": 3} if config.quick else {}
-    result = run_robustness(out / "robustness", execution=execution, **quick)
+    setting = RobustnessConfig(runs=5, limit=3) if config.quick else RobustnessConfig()
+    result = run_robustness(setting, out / "robustness", execution)
     return result, [_relink(robustness_section(result), "robustness")]
 
 

@@ -15,7 +15,8 @@ from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, hard_limit, ru
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
-from hbtp.planning import Limits, hints_from_record, plan
+from hbtp.llm.parse import hints_from_record
+from hbtp.planning import Limits, plan
 from hbtp.planning.heuristics import HeuristicName
 from hbtp.planning.result import Status
 

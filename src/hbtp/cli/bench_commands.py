@@ -13,14 +13,47 @@ from hbtp.bench.runner import Execution
 from hbtp.bench.suite import PARTS, SuiteConfig, run_suite
 from hbtp.bench.table1 import Table1Config, run_table1
 from hbtp.bench.table2 import BackendRecipe, Table2Config, run_table2, write_table2_report
-from hbtp.cli.options import backend_options, comma_choices, comma_numbers, execution_options
+from hbtp.cli.options import (
+    backend_options,
+    comma_choices,
+    comma_numbers,
+    examples_option,
+    execution_options,
+    feedback_rounds_option,
+    option_group,
+    retrieval_option,
+    round_time_limit_option,
+)
 from hbtp.datasets import read_dataset_file
 from hbtp.domains import scenario_names
 from hbtp.llm.backends.registry import BackendOptions
-from hbtp.llm.prompt import RETRIEVALS, PromptOptions
+from hbtp.llm.prompt import PromptOptions
 from hbtp.pipeline import LoopOptions
 from hbtp.planning import PLANNERS
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
+
+#: Options several benchmarks share.
+out_dir_option = click.option(
+    "-o",
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Output folder (results.jsonl, summary.json); re-running resumes.",
+)
+planners_option = click.option(
+    "--planners", default=",".join(PLANNERS), show_default=True, help="Comma-separated planners."
+)
+heuristic_option = click.option(
+    "--heuristic",
+    type=click.Choice(list(HEURISTICS)),
+    default="none",
+    show_default=True,
+    help="LLM-free heuristic (none: the paper's planners).",
+)
+task_time_limit_option = click.option(
+    "-t", "--time-limit", type=float, default=5.0, show_default=True, help="Seconds per task."
+)
 
 
 @click.group()
@@ -36,7 +69,7 @@ def bench() -> None:
     show_default=True,
     help="Action space: pruned from each record's hints, or every action.",
 )
-@click.option("--planners", default=",".join(PLANNERS), show_default=True, help="Comma-separated planners.")
+@planners_option
 @click.option(
     "--hints",
     type=click.Choice(["oracle", "none"]),
@@ -44,23 +77,10 @@ def bench() -> None:
     show_default=True,
     help="oracle: each record's optimal actions as the heuristic path; none: no heuristic path.",
 )
-@click.option(
-    "--heuristic",
-    type=click.Choice(list(HEURISTICS)),
-    default="none",
-    show_default=True,
-    help="LLM-free heuristic (none: the paper's planners).",
-)
-@click.option("-t", "--time-limit", type=float, default=5.0, show_default=True, help="Seconds per task.")
+@heuristic_option
+@task_time_limit_option
 @click.option("--limit", type=int, help="Only the first N tasks.")
-@click.option(
-    "-o",
-    "--out",
-    "out_dir",
-    required=True,
-    type=click.Path(file_okay=False),
-    help="Output folder (results.jsonl, summary.json); re-running resumes.",
-)
+@out_dir_option
 @execution_options
 def table1(
     space: str,
@@ -98,6 +118,34 @@ def table1(
     return 0
 
 
+def _table2_loop(
+    planner: str, feedback_rounds: int, examples: int, retrieval: str, round_time_limit: float
+) -> LoopOptions:
+    prompt = PromptOptions(examples=examples, retrieval=retrieval)  # the style is the backend's own
+    return LoopOptions(
+        planner=planner, feedback_rounds=feedback_rounds, round_time_limit=round_time_limit, prompt=prompt
+    )
+
+
+#: ``bench table2``'s LLM loop: ``--planner``, ``--feedback-rounds``, ``--examples``, ``--retrieval``,
+#: ``--round-time-limit``, passed on as ``loop: LoopOptions``.
+table2_loop_options = option_group(
+    "loop",
+    _table2_loop,
+    click.option(
+        "--planner",
+        type=click.Choice(list(PLANNERS)),
+        default="hbtp-s",
+        show_default=True,
+        help="Planner of every round.",
+    ),
+    feedback_rounds_option("Rounds that ask again with the failed search as feedback."),
+    examples_option,
+    retrieval_option,
+    round_time_limit_option,
+)
+
+
 @bench.command("table2")
 @click.option("-s", "--scenario", "scenarios", multiple=True, help="Scenario(s); default all four.")
 @click.option("--llm", "llm_spec", help="Backend (see hbtp plan --llm); default oracle, or none with --hints-from.")
@@ -107,25 +155,7 @@ def table1(
     help="Dataset file whose records are the first-round replies; --llm then answers the feedback rounds.",
 )
 @backend_options
-@click.option(
-    "--planner", type=click.Choice(list(PLANNERS)), default="hbtp-s", show_default=True, help="Planner of every round."
-)
-@click.option(
-    "--feedback-rounds",
-    type=click.IntRange(0, 10),
-    default=3,
-    show_default=True,
-    help="Rounds that ask again with the failed search as feedback.",
-)
-@click.option("--examples", type=click.IntRange(0, 50), default=5, show_default=True, help="Few-shot demonstrations.")
-@click.option(
-    "--retrieval",
-    type=click.Choice(list(RETRIEVALS)),
-    default="lexical",
-    show_default=True,
-    help="How demonstrations are chosen (embeddings: the optional extra).",
-)
-@click.option("--round-time-limit", type=float, default=5.0, show_default=True, help="Planning seconds per round.")
+@table2_loop_options
 @click.option("--runs", type=click.IntRange(1, 100), default=1, show_default=True, help="Repeat with seeds 0..N-1.")
 @click.option(
     "--b-time-limit",
@@ -135,25 +165,14 @@ def table1(
     help="Seconds for B-Time (OBTEA, full space, no heuristic) per task; 0 skips it.",
 )
 @click.option("--limit", type=int, help="Only the first N tasks.")
-@click.option(
-    "-o",
-    "--out",
-    "out_dir",
-    required=True,
-    type=click.Path(file_okay=False),
-    help="Output folder (results.jsonl, summary.json); re-running resumes.",
-)
+@out_dir_option
 @execution_options
 def table2(
     scenarios: tuple[str, ...],
     llm_spec: str | None,
     hints_from: str | None,
     backend: BackendOptions,
-    planner: str,
-    feedback_rounds: int,
-    examples: int,
-    retrieval: str,
-    round_time_limit: float,
+    loop: LoopOptions,
     runs: int,
     b_time_limit: float,
     limit: int | None,
@@ -168,15 +187,6 @@ def table2(
     label = (
         f"hints-from:{Path(hints_from).name}" + (f"+{llm_spec}" if llm_spec else "") if hints_from else str(llm_spec)
     )
-    loop = LoopOptions(
-        planner=planner,
-        feedback_rounds=feedback_rounds,
-        round_time_limit=round_time_limit,
-        prompt=PromptOptions(
-            examples=examples, style="completion" if llm_spec == "local" else "chat", retrieval=retrieval
-        ),
-    )
-
     recipe = BackendRecipe(llm_spec, backend, tuple(records) if records is not None else None)
     rows = []
     for name in names:
@@ -221,14 +231,7 @@ def _fmt(value: float | None, width: int = 6) -> str:
 )
 @click.option("-t", "--time-limit", type=float, default=5.0, show_default=True, help="Seconds per run.")
 @click.option("--limit", type=int, help="Only the first N tasks.")
-@click.option(
-    "-o",
-    "--out",
-    "out_dir",
-    required=True,
-    type=click.Path(file_okay=False),
-    help="Output folder (results.jsonl, summary.json); re-running resumes.",
-)
+@out_dir_option
 @execution_options
 def fig4(
     correct_rates: str, error_rates: str, seeds: int, time_limit: float, limit: int | None, out_dir: str,
@@ -255,7 +258,7 @@ def fig4(
 
 @bench.command("fig3")
 @click.option("--scales", default="1,1.5,2,2.5,3", show_default=True, help="Object multipliers of RobotHow.")
-@click.option("--planners", default=",".join(PLANNERS), show_default=True, help="Comma-separated planners.")
+@planners_option
 @click.option(
     "--space",
     type=click.Choice(["full", "pruned"]),
@@ -263,23 +266,10 @@ def fig4(
     show_default=True,
     help="Action space: every action, or pruned from each record's hints.",
 )
-@click.option(
-    "--heuristic",
-    type=click.Choice(list(HEURISTICS)),
-    default="none",
-    show_default=True,
-    help="LLM-free heuristic (none: the paper's planners).",
-)
-@click.option("-t", "--time-limit", type=float, default=5.0, show_default=True, help="Seconds per task.")
+@heuristic_option
+@task_time_limit_option
 @click.option("--limit", type=int, default=20, show_default=True, help="Table I tasks per scale.")
-@click.option(
-    "-o",
-    "--out",
-    "out_dir",
-    required=True,
-    type=click.Path(file_okay=False),
-    help="Output folder (results.jsonl, summary.json); re-running resumes.",
-)
+@out_dir_option
 @execution_options
 def fig3(
     scales: str, planners: str, space: str, heuristic: str, time_limit: float, limit: int, out_dir: str,
@@ -314,14 +304,7 @@ def fig3(
 @click.option("--llm", "llm_spec", default="local", show_default=True, help="Table II backend (see hbtp plan --llm).")
 @backend_options
 @click.option("--runs", type=click.IntRange(1, 100), default=1, show_default=True, help="Table II runs (seeds).")
-@click.option(
-    "-o",
-    "--out",
-    "out_dir",
-    required=True,
-    type=click.Path(file_okay=False),
-    help="Output folder (results.jsonl, summary.json); re-running resumes.",
-)
+@out_dir_option
 @execution_options
 def bench_all(
     quick: bool,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import click
@@ -9,7 +10,6 @@ import click
 from hbtp.cli.options import ScenarioSource, echo_json, scenario_options, write_files_atomically
 from hbtp.domains import load_scenario, scenario_names, write_domain, write_grounded, write_problem
 from hbtp.domains.lifted import And, AtomFormula
-from hbtp.domains.pddl_reader import read_domain_file, read_problem_file
 
 
 @click.command()
@@ -96,13 +96,9 @@ def export_pddl(
     resolved = loaded.task.resolve_goal(goal)
     out = Path(out_dir)
     if lifted:
-        domain = read_domain_file(loaded.domain_file)
-        problem = read_problem_file(loaded.problem_file, domain)
-        atoms = tuple(AtomFormula(a.predicate, a.args) for a in resolved.atoms)
-        problem = type(problem)(
-            problem.name, problem.domain_name, problem.objects, problem.init, problem.numeric_init, And(atoms), True
-        )
-        domain_text, problem_text = write_domain(domain), write_problem(problem)
+        goal_formula = And(tuple(AtomFormula(a.predicate, a.args) for a in resolved.atoms))
+        problem = dataclasses.replace(loaded.pddl.problem, goal=goal_formula, minimize_cost=True)
+        domain_text, problem_text = write_domain(loaded.pddl.domain), write_problem(problem)
     else:
         domain_text, problem_text = write_grounded(loaded.task, resolved)
     write_files_atomically({out / "domain.pddl": domain_text, out / "problem.pddl": problem_text})

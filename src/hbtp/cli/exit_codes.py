@@ -7,7 +7,8 @@ code   meaning
 1      not solved (unsolvable, time or node limit), goal not reached, verification failed,
        or a dataset with invalid records
 2      bad input or usage, or an LLM backend that cannot run: one line ``hbtp: error: ...``
-3      an internal error (a bug: run with ``--debug`` for the traceback and please report it)
+3      an internal error (a bug, also one inside a search: run with ``--debug`` for the traceback
+       and please report it)
 130    interrupted (Ctrl-C)
 =====  ==================================================================================
 
@@ -23,6 +24,7 @@ from typing import IO, Any
 import click
 
 from hbtp.errors import HbtpError, PlanningError
+from hbtp.planning.result import Status
 
 ERROR_PREFIX = "hbtp: error: "
 
@@ -44,6 +46,14 @@ def error_line(message: str) -> str:
 def exit_code_for(error: HbtpError) -> ExitCode:
     """The exit code of an hbtp error: 1 for a planning run that cannot start, else 2."""
     return ExitCode.NOT_SOLVED if isinstance(error, PlanningError) else ExitCode.INPUT
+
+
+def plan_exit_code(status: Status) -> ExitCode:
+    """The exit code of a planning run that ended with ``status``: 0 solved, 3 an internal error of
+    the search, 1 otherwise (unsolvable, a time, node or memory limit)."""
+    if status.solved:
+        return ExitCode.OK
+    return ExitCode.INTERNAL if status is Status.ERROR else ExitCode.NOT_SOLVED
 
 
 class CommandError(click.ClickException):
@@ -68,4 +78,13 @@ def command_error(error: HbtpError) -> CommandError:
     return kind(str(error))
 
 
-__all__ = ["ERROR_PREFIX", "CommandError", "ExitCode", "NotSolvedError", "command_error", "error_line", "exit_code_for"]
+__all__ = [
+    "ERROR_PREFIX",
+    "CommandError",
+    "ExitCode",
+    "NotSolvedError",
+    "command_error",
+    "error_line",
+    "exit_code_for",
+    "plan_exit_code",
+]

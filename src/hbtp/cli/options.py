@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import inspect
 import json
 import math
 from collections.abc import Callable, Iterable
@@ -15,10 +16,11 @@ import click
 from hbtp.bench.runner import EXECUTORS, Execution, ExecutorName
 from hbtp.deadline import Deadline
 from hbtp.domains import Scenario, load_pddl_scenario, load_scenario, scenario_names
-from hbtp.domains.scenarios import read_mutex_file
+from hbtp.domains.scenarios import ScenarioOptions, read_mutex_file
 from hbtp.errors import InputError
 from hbtp.files import write_all_atomically
 from hbtp.llm.backends.registry import BackendOptions
+from hbtp.llm.prompt import RETRIEVALS
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -52,52 +54,65 @@ class ScenarioSource:
             return load_scenario(scenario)
         if pddl:
             declared = read_mutex_file(self.mutex_file) if self.mutex_file else {"groups": [], "nogoods": []}
-            return load_pddl_scenario(
-                pddl[0],
-                pddl[1],
+            options = ScenarioOptions(
                 keep_fluent=self.keep_fluent,
                 objects=self.object_categories,
                 mutex_groups=declared["groups"],
                 mutex_nogoods=declared["nogoods"],
-                deadline=deadline,
             )
+            return load_pddl_scenario(pddl[0], pddl[1], options, deadline=deadline)
         raise InputError(f"choose a scenario with --scenario ({', '.join(scenario_names())}) or --pddl DOMAIN PROBLEM")
 
 
-def scenario_options(function: F) -> F:
-    """``--scenario NAME`` or ``--pddl DOMAIN PROBLEM`` (with ``--mutex FILE``, ``--objects CAT``,
-    ``--keep-fluent PRED``), handed to the command as one ``source: ScenarioSource`` argument."""
+def option_group(name: str, build: Callable[..., Any], *options: Callable[[Any], Any]) -> Callable[[F], F]:
+    """A decorator that adds ``options`` (click option decorators, in their ``--help`` order) to a
+    command and hands their values to it as one argument: ``name=build(**values)``, ``build``
+    taking one keyword argument per option (its parameter name; a nested group's ``name``)."""
+    names = list(inspect.signature(build).parameters)
 
-    @functools.wraps(function)
-    def wrapper(
-        *args: Any,
-        scenario: str | None,
-        pddl: tuple[str, str] | None,
-        object_categories: tuple[str, ...],
-        keep_fluent: tuple[str, ...],
-        mutex_file: str | None,
-        **kwargs: Any,
-    ) -> Any:
-        source = ScenarioSource(scenario, pddl or None, tuple(object_categories), tuple(keep_fluent), mutex_file)
-        return function(*args, source=source, **kwargs)
+    def decorate(function: F) -> F:
+        @functools.wraps(function)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            values = {key: kwargs.pop(key) for key in names}
+            return function(*args, **kwargs, **{name: build(**values)})
 
-    decorated: Any = wrapper
-    decorated = click.option(
-        "--mutex", "mutex_file", type=click.Path(dir_okay=False), help="TOML file of declared mutexes (with --pddl)."
-    )(decorated)
-    decorated = click.option(
-        "--keep-fluent", multiple=True, help="With --pddl: a predicate no action changes that stays in the state."
-    )(decorated)
-    decorated = click.option(
-        "--objects", "object_categories", multiple=True, help="With --pddl: static categories that form the objects O."
-    )(decorated)
-    decorated = click.option(
+        decorated: Any = wrapper
+        for option in reversed(options):
+            decorated = option(decorated)
+        return cast(F, decorated)
+
+    return decorate
+
+
+def _scenario_source(
+    scenario: str | None,
+    pddl: tuple[str, str] | None,
+    object_categories: tuple[str, ...],
+    keep_fluent: tuple[str, ...],
+    mutex_file: str | None,
+) -> ScenarioSource:
+    return ScenarioSource(scenario, pddl or None, tuple(object_categories), tuple(keep_fluent), mutex_file)
+
+
+#: ``--scenario NAME`` or ``--pddl DOMAIN PROBLEM`` (with ``--mutex FILE``, ``--objects CAT``,
+#: ``--keep-fluent PRED``), handed to the command as one ``source: ScenarioSource`` argument.
+scenario_options = option_group(
+    "source",
+    _scenario_source,
+    click.option("-s", "--scenario", metavar="NAME", help=f"A shipped scenario: {', '.join(scenario_names())}."),
+    click.option(
         "--pddl", nargs=2, type=click.Path(dir_okay=False), metavar="DOMAIN PROBLEM", help="Your own PDDL files."
-    )(decorated)
-    decorated = click.option(
-        "-s", "--scenario", metavar="NAME", help=f"A shipped scenario: {', '.join(scenario_names())}."
-    )(decorated)
-    return cast(F, decorated)
+    ),
+    click.option(
+        "--objects", "object_categories", multiple=True, help="With --pddl: static categories that form the objects O."
+    ),
+    click.option(
+        "--keep-fluent", multiple=True, help="With --pddl: a predicate no action changes that stays in the state."
+    ),
+    click.option(
+        "--mutex", "mutex_file", type=click.Path(dir_okay=False), help="TOML file of declared mutexes (with --pddl)."
+    ),
+)
 
 
 def echo_json(data: Any) -> None:
@@ -130,92 +145,108 @@ def comma_numbers(text: str, hint: str, upper: float = 1.0) -> tuple[float, ...]
     return values
 
 
-def execution_options(function: F) -> F:
-    """``--jobs``, ``--executor``, ``--kill-after``, ``--no-progress``, passed on as ``execution``."""
+def _execution(jobs: int, executor: str, kill_after: float | None, no_progress: bool) -> Execution:
+    return Execution(executor=cast(ExecutorName, executor), jobs=jobs, kill_after=kill_after, progress=not no_progress)
 
-    @click.option("-j", "--jobs", type=click.IntRange(1, 512), default=1, show_default=True, help="Runs in parallel.")
-    @click.option(
+
+#: ``--jobs``, ``--executor``, ``--kill-after``, ``--no-progress``, passed on as ``execution``.
+execution_options = option_group(
+    "execution",
+    _execution,
+    click.option("-j", "--jobs", type=click.IntRange(1, 512), default=1, show_default=True, help="Runs in parallel."),
+    click.option(
         "--executor",
         type=click.Choice(list(EXECUTORS)),
         default="local",
         show_default=True,
         help="local: worker processes; ray: a Ray cluster ($RAY_ADDRESS) or a local Ray; inline: this process.",
-    )
-    @click.option(
+    ),
+    click.option(
         "--kill-after",
         type=click.FloatRange(min=0, min_open=True),
         help="Hard limit in seconds per run: the worker is killed (default: from the benchmark's time limits).",
+    ),
+    click.option("--no-progress", is_flag=True, help="No progress bar."),
+)
+
+
+def _positive_seconds(context: click.Context, parameter: click.Parameter, value: float) -> float:
+    if not (value > 0 and math.isfinite(value)):  # also nan and inf
+        raise click.BadParameter(f"must be a positive number of seconds, not {value}")
+    return value
+
+
+def _backend(
+    model: str | None,
+    base_url: str | None,
+    api_key: str | None,
+    llm_timeout: float,
+    model_path: str | None,
+    threads: int | None,
+    prompt_cache: bool,
+    noise_drop: float,
+    noise_insert: float,
+) -> BackendOptions:
+    return BackendOptions(
+        model=model,
+        base_url=base_url,
+        api_key=api_key,
+        timeout=llm_timeout,
+        model_path=model_path,
+        threads=threads,
+        prompt_cache=prompt_cache,
+        drop=noise_drop,
+        insert=noise_insert,
     )
-    @click.option("--no-progress", is_flag=True, help="No progress bar.")
-    @functools.wraps(function)
-    def wrapper(
-        *args: Any, jobs: int, executor: str, kill_after: float | None, no_progress: bool, **kwargs: Any
-    ) -> Any:
-        execution = Execution(
-            executor=cast(ExecutorName, executor), jobs=jobs, kill_after=kill_after, progress=not no_progress
-        )
-        return function(*args, execution=execution, **kwargs)
-
-    return cast(F, wrapper)
 
 
-def backend_options(function: F) -> F:
-    """The LLM back-end options (``--model``, ``--base-url``, ``--api-key``, ``--llm-timeout``,
-    ``--model-path``, ``--threads``, ``--prompt-cache``, ``--noise-drop``, ``--noise-insert``), passed on as
-    ``backend: BackendOptions``."""
-
-    def positive_seconds(context: click.Context, parameter: click.Parameter, value: float) -> float:
-        if not (value > 0 and math.isfinite(value)):  # also nan and inf
-            raise click.BadParameter(f"must be a positive number of seconds, not {value}")
-        return value
-
-    @click.option("--model", help="LLM model name (openai; default $HBTP_LLM_MODEL).")
-    @click.option("--base-url", help="OpenAI-compatible server URL (default $OPENAI_BASE_URL).")
-    @click.option("--api-key", help="API key (default $OPENAI_API_KEY; never stored).")
-    @click.option(
+#: The LLM back-end options (``--model``, ``--base-url``, ``--api-key``, ``--llm-timeout``,
+#: ``--model-path``, ``--threads``, ``--prompt-cache``, ``--noise-drop``, ``--noise-insert``), passed on
+#: as ``backend: BackendOptions``.
+backend_options = option_group(
+    "backend",
+    _backend,
+    click.option("--model", help="LLM model name (openai; default $HBTP_LLM_MODEL)."),
+    click.option("--base-url", help="OpenAI-compatible server URL (default $OPENAI_BASE_URL)."),
+    click.option("--api-key", help="API key (default $OPENAI_API_KEY; never stored)."),
+    click.option(
         "--llm-timeout",
         type=float,
         default=60.0,
         show_default=True,
-        callback=positive_seconds,
+        callback=_positive_seconds,
         help="Seconds for one LLM call (its retries and reading the reply included).",
-    )
-    @click.option("--model-path", help="GGUF file for --llm local (default: the packaged Gemma-3 270M).")
-    @click.option("--threads", type=int, help="CPU threads for --llm local.")
-    @click.option(
+    ),
+    click.option("--model-path", help="GGUF file for --llm local (default: the packaged Gemma-3 270M)."),
+    click.option("--threads", type=int, help="CPU threads for --llm local."),
+    click.option(
         "--prompt-cache",
         is_flag=True,
         help="--llm local: reuse the prompt cache (faster; answers may then depend on the order of requests).",
-    )
-    @click.option("--noise-drop", type=float, default=0.3, show_default=True, help="noisy-oracle: fraction dropped.")
-    @click.option(
+    ),
+    click.option("--noise-drop", type=float, default=0.3, show_default=True, help="noisy-oracle: fraction dropped."),
+    click.option(
         "--noise-insert", type=float, default=0.3, show_default=True, help="noisy-oracle: wrong actions added."
-    )
-    @functools.wraps(function)
-    def wrapper(
-        *args: Any,
-        model: str | None,
-        base_url: str | None,
-        api_key: str | None,
-        llm_timeout: float,
-        model_path: str | None,
-        threads: int | None,
-        prompt_cache: bool,
-        noise_drop: float,
-        noise_insert: float,
-        **kwargs: Any,
-    ) -> Any:
-        backend = BackendOptions(
-            model=model,
-            base_url=base_url,
-            api_key=api_key,
-            timeout=llm_timeout,
-            model_path=model_path,
-            threads=threads,
-            prompt_cache=prompt_cache,
-            drop=noise_drop,
-            insert=noise_insert,
-        )
-        return function(*args, backend=backend, **kwargs)
+    ),
+)
 
-    return cast(F, wrapper)
+
+def feedback_rounds_option(help: str) -> Callable[[F], F]:
+    """``--feedback-rounds`` of the LLM loop, with the command's ``help``."""
+    return click.option("--feedback-rounds", type=click.IntRange(0, 10), default=3, show_default=True, help=help)
+
+
+#: ``--examples``, ``--retrieval`` and ``--round-time-limit`` of the LLM loop (``hbtp plan``, ``bench table2``).
+examples_option = click.option(
+    "--examples", type=click.IntRange(0, 50), default=5, show_default=True, help="Few-shot demonstrations."
+)
+retrieval_option = click.option(
+    "--retrieval",
+    type=click.Choice(list(RETRIEVALS)),
+    default="lexical",
+    show_default=True,
+    help="How demonstrations are chosen (embeddings: the optional extra).",
+)
+round_time_limit_option = click.option(
+    "--round-time-limit", type=float, default=5.0, show_default=True, help="Planning seconds per round."
+)

@@ -14,7 +14,7 @@ from hbtp.cli.options import echo_json
 from hbtp.datasets import DATASET_SCENARIO
 from hbtp.domains import scenario_names
 from hbtp.errors import InputError
-from hbtp.validation import COMPARE_TIME_LIMIT, ENGINES, Engine, iter_comparisons
+from hbtp.validation import COMPARE_TIME_LIMIT, ENGINES, Engine, decided, iter_comparisons
 
 
 def _plan_runs(scenarios: tuple[str, ...], dataset: str | None) -> list[tuple[str, str | None]]:
@@ -48,11 +48,6 @@ def _line(row: dict[str, Any]) -> str:
     )
 
 
-def _decided(row: dict[str, Any]) -> bool:
-    """Both OBTEA without mutexes and Fast Downward ended with an answer (a cost or a proof)."""
-    return row["obtea_unpruned_status"] in ("solved", "unsolvable") and row["fd_status"] in ("optimal", "unsolvable")
-
-
 def summarize(rows: Iterable[dict[str, Any]]) -> dict[str, Any]:
     """Counts and mean times of comparison rows."""
     rows = list(rows)
@@ -61,7 +56,7 @@ def summarize(rows: Iterable[dict[str, Any]]) -> dict[str, Any]:
         "records": len(rows),
         "matches": sum(1 for r in rows if r["match"]),
         "mismatches": sum(1 for r in rows if not r["match"]),
-        "undecided": sum(1 for r in rows if not _decided(r)),
+        "undecided": sum(1 for r in rows if not decided(r)),
         "mutexes_change_optimum": [f"{r['scenario']}:{r['record']}" for r in rows if r["mutexes_change_optimum"]],
         "obtea_mean_time_s": round(sum(r["obtea_time_s"] for r in rows) / count, 4),
         "obtea_unpruned_mean_time_s": round(sum(r["obtea_unpruned_time_s"] for r in rows) / count, 4),

@@ -153,6 +153,3 @@ class Problem:
     numeric_init: dict[tuple[str, tuple[str, ...]], int] = field(default_factory=dict)
     goal: Formula = And(())
     minimize_cost: bool = False
-
-
-TRUE = And(())

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from hbtp.deadline import Deadline
@@ -304,12 +305,7 @@ def read_domain(text: str, source: str = "<domain>", deadline: Deadline | None =
     """Parse a PDDL domain (past ``deadline``, :class:`~hbtp.deadline.TimeLimitReached`)."""
     reader = _Reader(source, deadline)
     name, sections, _ = reader.define(text, "domain")
-    requirements: list[str] = []
-    types: dict[str, str] = {}
-    constants: list[TypedName] = []
-    predicates: dict[str, tuple[TypedName, ...]] = {}
-    functions: dict[str, tuple[TypedName, ...]] = {}
-    action_nodes: list[SList] = []
+    parts = _DomainSections()
     seen: set[str] = set()
     for section in sections:
         node = reader.expect_list(section, "a domain section")
@@ -319,44 +315,18 @@ def read_domain(text: str, source: str = "<domain>", deadline: Deadline | None =
         if head != ":action" and head in seen:
             raise reader.fail(f"section {head} appears twice", node)
         seen.add(head)
-        if head == ":requirements":
-            for item in node.items[1:]:
-                req = reader.expect_symbol(item, "a requirement").lower
-                if req not in SUPPORTED_REQUIREMENTS:
-                    raise reader.fail(f"requirement {req} is not supported", item)
-                requirements.append(req)
-        elif head == ":types":
-            for typed in reader.typed_list(node.items[1:], variables=False):
-                if len(typed.types) != 1:
-                    raise reader.fail(f"type {typed.name!r} cannot have an (either ...) parent", node)
-                types[typed.name] = typed.types[0]
-        elif head == ":constants":
-            constants = reader.typed_list(node.items[1:], variables=False)
-        elif head == ":predicates":
-            for item in node.items[1:]:
-                decl = reader.expect_list(item, "(predicate ?args)")
-                pname = reader.expect_symbol(decl.items[0], "a predicate name").text if decl.items else ""
-                if not pname:
-                    raise reader.fail("empty predicate declaration", decl)
-                if pname in predicates:
-                    raise reader.fail(f"predicate {pname!r} is declared twice", decl)
-                predicates[pname] = tuple(reader.typed_list(decl.items[1:], variables=True))
-        elif head == ":functions":
-            functions.update(_read_functions(reader, node))
-        elif head == ":action":
-            action_nodes.append(node)
-        else:
-            raise reader.fail(f"unknown domain section {head or '(list)'}", node)
+        parts.read(reader, head, node)
 
+    types, constants, predicates = parts.types, parts.constants, parts.predicates
     declared_types = {OBJECT_TYPE, *types, *types.values()}
     reader.check_types([*constants, *(p for params in predicates.values() for p in params)], "", declared_types)
     reader.declared_types = declared_types
     _check_type_cycles(reader, types)
 
-    scope = _Scope(predicates, functions, {c.name for c in constants}, set())
+    scope = _Scope(predicates, parts.functions, {c.name for c in constants}, set())
     actions: list[ActionSchema] = []
     action_names: set[str] = set()
-    for position, node in enumerate(action_nodes):
+    for position, node in enumerate(parts.action_nodes):
         if deadline is not None and position & 255 == 255:
             deadline.check("reading the PDDL files")
         action = _read_action(reader, node, scope, declared_types)
@@ -364,7 +334,52 @@ def read_domain(text: str, source: str = "<domain>", deadline: Deadline | None =
             raise reader.fail(f"action {action.name!r} is declared twice", node)
         action_names.add(action.name)
         actions.append(action)
-    return Domain(name, tuple(requirements), types, tuple(constants), predicates, functions, tuple(actions))
+    return Domain(name, tuple(parts.requirements), types, tuple(constants), predicates, parts.functions, tuple(actions))
+
+
+@dataclass
+class _DomainSections:
+    """The sections of a domain as they are read; actions are read last, when every declaration is known."""
+
+    requirements: list[str] = field(default_factory=list)
+    types: dict[str, str] = field(default_factory=dict)
+    constants: list[TypedName] = field(default_factory=list)
+    predicates: dict[str, tuple[TypedName, ...]] = field(default_factory=dict)
+    functions: dict[str, tuple[TypedName, ...]] = field(default_factory=dict)
+    action_nodes: list[SList] = field(default_factory=list)
+
+    def read(self, reader: _Reader, head: str, node: SList) -> None:
+        if head == ":requirements":
+            for item in node.items[1:]:
+                req = reader.expect_symbol(item, "a requirement").lower
+                if req not in SUPPORTED_REQUIREMENTS:
+                    raise reader.fail(f"requirement {req} is not supported", item)
+                self.requirements.append(req)
+        elif head == ":types":
+            for typed in reader.typed_list(node.items[1:], variables=False):
+                if len(typed.types) != 1:
+                    raise reader.fail(f"type {typed.name!r} cannot have an (either ...) parent", node)
+                self.types[typed.name] = typed.types[0]
+        elif head == ":constants":
+            self.constants = reader.typed_list(node.items[1:], variables=False)
+        elif head == ":predicates":
+            self.read_predicates(reader, node)
+        elif head == ":functions":
+            self.functions.update(_read_functions(reader, node))
+        elif head == ":action":
+            self.action_nodes.append(node)
+        else:
+            raise reader.fail(f"unknown domain section {head or '(list)'}", node)
+
+    def read_predicates(self, reader: _Reader, node: SList) -> None:
+        for item in node.items[1:]:
+            decl = reader.expect_list(item, "(predicate ?args)")
+            pname = reader.expect_symbol(decl.items[0], "a predicate name").text if decl.items else ""
+            if not pname:
+                raise reader.fail("empty predicate declaration", decl)
+            if pname in self.predicates:
+                raise reader.fail(f"predicate {pname!r} is declared twice", decl)
+            self.predicates[pname] = tuple(reader.typed_list(decl.items[1:], variables=True))
 
 
 def _read_functions(reader: _Reader, node: SList) -> dict[str, tuple[TypedName, ...]]:

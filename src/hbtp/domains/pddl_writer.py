@@ -176,13 +176,26 @@ def write_grounded(
     again; a comment at the top of the domain names them. The lifted files round-trip.
     """
     name = domain_name or _pddl_name(task.name)
-    symbols = [*task.constants, *task.objects]
-    used: dict[str, int] = {}
-    for atom in task.atoms:
-        used.setdefault(atom.predicate, len(atom.args))
-    for atom in goal.atoms:
+    used: dict[str, int] = {}  # predicate -> arity
+    for atom in (*task.atoms, *goal.atoms):
         used.setdefault(atom.predicate, len(atom.args))
     rename = keyword_safe_predicates(used) if rename_keywords else {}
+    init = " ".join(_ground_atom(task.atoms[i], rename) for i in sorted(task.initial_state))
+    goals = " ".join(_ground_atom(a, rename) for a in goal.atoms)
+    problem = (
+        f"(define (problem {name}-task)\n"
+        f"  (:domain {name})\n"
+        f"  (:init {init} (= (total-cost) 0))\n"
+        f"  (:goal (and {goals}))\n"
+        "  (:metric minimize (total-cost))\n"
+        ")\n"
+    )
+    return _grounded_domain(task, name, used, rename), problem
+
+
+def _grounded_domain(task: GroundTask, name: str, used: dict[str, int], rename: dict[str, str]) -> str:
+    """The domain of :func:`write_grounded`: one parameterless action per ground action."""
+    symbols = [*task.constants, *task.objects]
     changed = {task.atoms[i].predicate for action in task.actions for i in (*action.add, *action.delete)}
     unchanged = sorted(rename.get(p, p) for p in used if p not in changed and p in task.predicates)
     domain = [
@@ -215,17 +228,7 @@ def write_grounded(
             f"    :effect (and {' '.join(eff)}))\n"
         )
     domain.append(")\n")
-    init = " ".join(_ground_atom(task.atoms[i], rename) for i in sorted(task.initial_state))
-    goals = " ".join(_ground_atom(a, rename) for a in goal.atoms)
-    problem = (
-        f"(define (problem {name}-task)\n"
-        f"  (:domain {name})\n"
-        f"  (:init {init} (= (total-cost) 0))\n"
-        f"  (:goal (and {goals}))\n"
-        "  (:metric minimize (total-cost))\n"
-        ")\n"
-    )
-    return "".join(domain), problem
+    return "".join(domain)
 
 
 def _pddl_name(text: str) -> str:

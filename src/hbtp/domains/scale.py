@@ -14,8 +14,7 @@ import itertools
 import math
 
 from hbtp.domains.lifted import AtomFormula, Problem, TypedName
-from hbtp.domains.pddl_reader import read_domain_file, read_problem_file
-from hbtp.domains.scenarios import Scenario, load_pddl_scenario, load_scenario, manifest_entry
+from hbtp.domains.scenarios import Scenario, ScenarioOptions, load_pddl_scenario, load_scenario
 from hbtp.errors import InputError
 
 
@@ -53,21 +52,16 @@ def clone_objects(problem: Problem, factor: float) -> Problem:
 
 def scaled_scenario(name: str, factor: float) -> Scenario:
     """A shipped scenario with its objects cloned ``factor`` times (``factor`` 1: the scenario itself)."""
-    if math.isclose(factor, 1.0):
-        return load_scenario(name)
     base = load_scenario(name)
-    domain = read_domain_file(base.domain_file)
-    problem = clone_objects(read_problem_file(base.problem_file, domain), factor)
-    entry = manifest_entry(name)
-    mutex = entry.get("mutex", {})
-    return load_pddl_scenario(
-        base.domain_file,
-        base.problem_file,
-        problem=problem,
+    if math.isclose(factor, 1.0):
+        return base
+    options = dataclasses.replace(
+        ScenarioOptions.shipped(name),
         name=f"{name}-x{factor:g}",
         title=f"{base.title} x{factor:g}",
-        keep_fluent=entry.get("keep_fluent", ()),
-        objects=entry.get("objects", ()),
-        mutex_groups=mutex.get("groups", ()),
-        mutex_nogoods=mutex.get("nogoods", ()),
+        description="",
+        fewshot=None,
+        test_set=None,
     )
+    parsed = dataclasses.replace(base.pddl, problem=clone_objects(base.pddl.problem, factor))
+    return load_pddl_scenario(base.domain_file, base.problem_file, options, parsed=parsed)

@@ -7,21 +7,21 @@ PDDL files inside the package, described by ``data/scenarios.toml``.
 from __future__ import annotations
 
 import functools
-import gc
 import logging
 import time
 import tomllib
-from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from hbtp.collector import collector_paused
 from hbtp.deadline import Deadline, check_deadline
 from hbtp.domains import cache
 from hbtp.domains.cache import cache_dir
 from hbtp.domains.grounding import ground
-from hbtp.domains.lifted import Problem
+from hbtp.domains.lifted import Domain, Problem
 from hbtp.domains.mutex import Mutexes, infer_mutexes
 from hbtp.domains.pddl_reader import read_domain_file, read_problem_file
 from hbtp.errors import InputError
@@ -33,8 +33,26 @@ DATA = resources.files("hbtp.domains") / "data"
 
 
 @dataclass(frozen=True)
+class Pddl:
+    """A parsed PDDL domain and problem."""
+
+    domain: Domain
+    problem: Problem
+
+
+def read_pddl(domain_file: str | Path, problem_file: str | Path, deadline: Deadline | None = None) -> Pddl:
+    """Parse a domain file and a problem file of that domain."""
+    domain = read_domain_file(domain_file, deadline)
+    return Pddl(domain, read_problem_file(problem_file, domain, deadline))
+
+
+@dataclass(frozen=True)
 class Scenario:
-    """A planning scenario: the grounded task, its mutexes, and where it came from."""
+    """A planning scenario: the grounded task, its mutexes, and where it came from.
+
+    ``parsed`` is the lifted domain and problem the task was grounded from; ``None`` for a scenario
+    read from the disk cache, whose :attr:`pddl` reads its files again when first asked.
+    """
 
     name: str
     title: str
@@ -46,6 +64,12 @@ class Scenario:
     fewshot: str | None = None
     test_set: str | None = None
     load_seconds: float = 0.0
+    parsed: Pddl | None = field(default=None, repr=False, compare=False)
+
+    @functools.cached_property
+    def pddl(self) -> Pddl:
+        """The lifted domain and problem the task was grounded from."""
+        return self.parsed if self.parsed is not None else read_pddl(self.domain_file, self.problem_file)
 
     def summary(self) -> dict[str, Any]:
         """The figures ``hbtp scenarios`` prints."""
@@ -88,6 +112,42 @@ def load_scenario(name: str) -> Scenario:
     return _load_shipped(name)
 
 
+@dataclass(frozen=True)
+class ScenarioOptions:
+    """How PDDL files become a scenario: its name (default: the problem's), title and description,
+    the grounding options (``keep_fluent``, the static categories ``objects`` that form O,
+    ``max_ground_actions``: see :func:`hbtp.domains.grounding.ground`), declared mutexes, and the
+    shipped few-shot and test datasets."""
+
+    name: str | None = None
+    title: str | None = None
+    description: str = ""
+    keep_fluent: Sequence[str] = ()
+    objects: Sequence[str] = ()
+    mutex_groups: Sequence[Sequence[str]] = ()
+    mutex_nogoods: Sequence[Sequence[str]] = ()
+    fewshot: str | None = None
+    test_set: str | None = None
+    max_ground_actions: int | None = None
+
+    @classmethod
+    def shipped(cls, name: str) -> ScenarioOptions:
+        """The options of the shipped scenario ``name``, from ``scenarios.toml``."""
+        entry = manifest_entry(name)
+        mutex = entry.get("mutex", {})
+        return cls(
+            name=name,
+            title=entry.get("title", name),
+            description=entry.get("description", ""),
+            keep_fluent=entry.get("keep_fluent", ()),
+            objects=entry.get("objects", ()),
+            mutex_groups=mutex.get("groups", ()),
+            mutex_nogoods=mutex.get("nogoods", ()),
+            fewshot=entry.get("fewshot"),
+            test_set=entry.get("test"),
+        )
+
+
 @functools.cache
 def _load_shipped(name: str) -> Scenario:
     entry = _manifest()[name]
@@ -110,20 +170,7 @@ def _load_shipped(name: str) -> Scenario:
                     test_set=cached.test_set,
                     load_seconds=time.perf_counter() - started,
                 )
-        mutex = entry.get("mutex", {})
-        scenario = load_pddl_scenario(
-            domain_file,
-            problem_file,
-            name=name,
-            title=entry.get("title", name),
-            description=entry.get("description", ""),
-            keep_fluent=entry.get("keep_fluent", ()),
-            objects=entry.get("objects", ()),
-            mutex_groups=mutex.get("groups", ()),
-            mutex_nogoods=mutex.get("nogoods", ()),
-            fewshot=entry.get("fewshot"),
-            test_set=entry.get("test"),
-        )
+        scenario = load_pddl_scenario(domain_file, problem_file, ScenarioOptions.shipped(name))
         if location is not None:
             cache.write_cached(
                 location,
@@ -151,66 +198,49 @@ def _cache_entry(name: str, folder: Path, entry: dict[str, Any]) -> cache.CacheE
 def load_pddl_scenario(
     domain_file: str | Path,
     problem_file: str | Path,
+    options: ScenarioOptions = ScenarioOptions(),
     *,
-    name: str | None = None,
-    title: str | None = None,
-    description: str = "",
-    keep_fluent: Iterable[str] = (),
-    objects: Iterable[str] = (),
-    mutex_groups: Sequence[Sequence[str]] = (),
-    mutex_nogoods: Sequence[Sequence[str]] = (),
-    fewshot: str | None = None,
-    test_set: str | None = None,
-    problem: Problem | None = None,
-    max_ground_actions: int | None = None,
+    parsed: Pddl | None = None,
     deadline: Deadline | None = None,
 ) -> Scenario:
-    """Load a scenario from a user's PDDL domain and problem files (``problem``, when given, replaces
-    the problem file's content, e.g. a generated larger problem).
+    """Load a scenario from a user's PDDL domain and problem files (``parsed``, when given, is their
+    content already read, or changed: e.g. a generated larger problem).
 
-    ``max_ground_actions`` bounds the grounding (default ``$HBTP_MAX_GROUND_ACTIONS`` or 1,000,000; see
-    :func:`hbtp.domains.grounding.ground`); past
-    ``deadline``, :class:`~hbtp.deadline.TimeLimitReached` names the phase that was running.
+    Grounding is bounded by ``options.max_ground_actions`` (default ``$HBTP_MAX_GROUND_ACTIONS`` or
+    1,000,000); past ``deadline``, :class:`~hbtp.deadline.TimeLimitReached` names the phase that was running.
     """
     started = time.perf_counter()
     domain_path, problem_path = Path(domain_file), Path(problem_file)
     # Reading and grounding build hundreds of thousands of small acyclic objects; the cyclic
     # collector's repeated full passes over them would take more than half of the time.
-    collecting = gc.isenabled()
-    gc.disable()
-    try:
-        domain = read_domain_file(domain_path, deadline)
-        if problem is None:
-            problem = read_problem_file(problem_path, domain, deadline)
+    with collector_paused():
+        parsed = parsed or read_pddl(domain_path, problem_path, deadline)
         check_deadline(deadline, "reading the PDDL files")
-        task_name = name or problem.name
         task = ground(
-            domain,
-            problem,
-            keep_fluent=keep_fluent,
-            object_categories=objects,
-            name=task_name,
-            max_ground_actions=max_ground_actions,
+            parsed.domain,
+            parsed.problem,
+            keep_fluent=options.keep_fluent,
+            object_categories=options.objects,
+            name=options.name or parsed.problem.name,
+            max_ground_actions=options.max_ground_actions,
             deadline=deadline,
         )
         check_deadline(deadline, "grounding")
-        mutexes = infer_mutexes(task, mutex_groups, mutex_nogoods, deadline)
-    finally:
-        if collecting:
-            gc.enable()
+        mutexes = infer_mutexes(task, options.mutex_groups, options.mutex_nogoods, deadline)
     elapsed = time.perf_counter() - started
-    log.info("loaded %s: %d actions in %.3f s", task_name, len(task.actions), elapsed)
+    log.info("loaded %s: %d actions in %.3f s", task.name, len(task.actions), elapsed)
     return Scenario(
-        name=task_name,
-        title=title or task_name,
-        description=description,
+        name=task.name,
+        title=options.title or task.name,
+        description=options.description,
         task=task,
         mutexes=mutexes,
         domain_file=domain_path,
         problem_file=problem_path,
-        fewshot=fewshot,
-        test_set=test_set,
+        fewshot=options.fewshot,
+        test_set=options.test_set,
         load_seconds=elapsed,
+        parsed=parsed,
     )
 
 
