@@ -63,3 +63,49 @@ def test_functions_are_short_and_take_few_parameters() -> None:
         if lines > MAX_FUNCTION_LINES or count > MAX_PARAMETERS
     ]
     assert not offenders, "\n".join(offenders)
+
+
+# The package's layers, lowest first (docs/architecture.md): a module may import its own layer and
+# the layers below it, never one above.
+LAYERS: tuple[tuple[str, ...], ...] = (
+    ("__init__", "errors", "files", "deadline", "collector"),
+    ("logic",),
+    ("domains",),
+    ("datasets",),
+    ("planning",),
+    ("bt",),
+    ("llm",),
+    ("pipeline",),
+    ("bench", "validation"),
+    ("cli", "__main__"),
+)
+
+
+def _layer(part: str) -> int:
+    for rank, names in enumerate(LAYERS):
+        if part in names:
+            return rank
+    raise AssertionError(f"hbtp.{part} has no layer in LAYERS (tests/test_quality.py, docs/architecture.md)")
+
+
+def test_imports_point_down_the_layers() -> None:
+    import ast
+
+    upward: list[str] = []
+    package = ROOT / "src" / "hbtp"
+    for path in sorted(package.rglob("*.py")):
+        parts = path.relative_to(package).with_suffix("").parts
+        rank = _layer(parts[0])
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            modules = (
+                [node.module]
+                if isinstance(node, ast.ImportFrom) and node.module and node.level == 0
+                else [alias.name for alias in node.names]
+                if isinstance(node, ast.Import)
+                else []
+            )
+            for module in modules:
+                pieces = module.split(".")
+                if pieces[0] == "hbtp" and len(pieces) > 1 and _layer(pieces[1]) > rank:
+                    upward.append(f"{path.relative_to(ROOT)}:{node.lineno} imports {module}")
+    assert not upward, "\n".join(upward)
