@@ -27,6 +27,7 @@ ROUND_FIELDS = {
     "llm_seconds",
     "planning_seconds",
     "error",
+    "calls",
 }
 MILK = "IsIn_milk_fridge & IsClose_fridge"
 
@@ -172,6 +173,9 @@ def test_plan_with_the_oracle_prints_the_round_record(capsys: pytest.CaptureFixt
     assert 0 < first["action_space"] < 7329
     assert first["llm_seconds"] >= 0
     assert first["planning_seconds"] >= 0
+    (call,) = first["calls"]  # one call, counted and timed
+    assert (call["round"], call["unknown"]) == (0, 0)
+    assert llm["llm_calls"] == 1
     (prompt,) = first["prompts"]
     assert set(prompt) == {"key", "round", "attempt", "messages", "completion_prompt"}
     assert [m["role"] for m in prompt["messages"]] == ["system", "user"]

@@ -295,3 +295,33 @@ def test_serve_local_reports_a_failed_start(monkeypatch: pytest.MonkeyPatch, tin
         local_server.serve_local(tiny_gguf, threads=1, startup_timeout=5),
     ):
         pass
+
+
+class _GrammarServer:
+    """A stand-in for xllamacpp's server: refuses any grammar, answers anything else, records bodies."""
+
+    def __init__(self) -> None:
+        self.bodies: list[dict[str, Any]] = []
+
+    def handle_completions(self, body: dict[str, Any]) -> dict[str, Any]:
+        self.bodies.append(body)
+        if "grammar" in body:
+            return {"error": {"code": 400, "message": "Failed to initialize samplers: failed to parse grammar"}}
+        return {"choices": [{"text": " Walk_apple", "finish_reason": "stop"}], "usage": {"completion_tokens": 3}}
+
+
+@needs_xllamacpp
+def test_a_refused_grammar_is_dropped_once_and_the_request_answered() -> None:
+    from hbtp.llm.constrain import Constraint
+
+    backend = LocalBackend()
+    server = _GrammarServer()
+    backend._server = server  # no model: the stand-in answers
+    request = Request((), "Goals: x\nOptimal Actions:", constraint=Constraint('root ::= "("', "{}"))
+    reply = backend.complete(request)
+    assert reply.text == " Walk_apple"
+    assert not reply.meta["constrained"]
+    assert [("grammar" in body) for body in server.bodies] == [True, False]
+    backend.complete(request)  # not sent again
+    assert "grammar" not in server.bodies[-1]
+    backend._server = None

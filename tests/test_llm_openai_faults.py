@@ -6,6 +6,7 @@ clear :class:`BackendError` saying what went wrong and how to fix it, within a b
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import socket
 import sys
@@ -360,3 +361,41 @@ def test_missing_openai_package_says_how_to_install(monkeypatch: pytest.MonkeyPa
 )
 def test_local_urls(url: str, local: bool) -> None:
     assert is_local_url(url) is local
+
+
+# ------------------------------------------------------------------ constrained decoding
+def constrained_request() -> Request:
+    from hbtp.domains.scenarios import load_scenario
+    from hbtp.llm.constrain import constraint_of
+
+    return dataclasses.replace(REQUEST, constraint=constraint_of(load_scenario("robothow-small").task))
+
+
+def test_the_schema_goes_as_response_format_and_json_comes_back_as_lines(fake: FakeServer) -> None:
+    answer = {"optimal_actions": ["Walk_apple"], "vital_action_predicates": ["Walk"], "vital_objects": ["apple"]}
+    fake.script = [Answer(body=chat_body(json.dumps(answer)))]
+    reply = backend_for(fake).complete(constrained_request())
+    sent = fake.requests[-1]["json"]
+    assert sent["response_format"]["json_schema"]["schema"]["required"][0] == "optimal_actions"
+    assert reply.text == "Optimal Actions: Walk_apple\nVital Action Predicates: Walk\nVital Objects: apple"
+    assert reply.meta["constrained"]
+
+
+def test_a_server_that_rejects_the_schema_is_asked_again_without(fake: FakeServer) -> None:
+    fake.script = [Answer(400, error_body("response_format is not supported")), Answer(body=chat_body())]
+    backend = backend_for(fake)
+    reply = backend.complete(constrained_request())
+    assert reply.text == "Optimal Actions: Walk_apple"
+    assert "response_format" in fake.requests[-2]["json"]
+    assert "response_format" not in fake.requests[-1]["json"]
+    assert not backend.response_format  # not sent again
+    backend.complete(constrained_request())
+    assert "response_format" not in fake.requests[-1]["json"]
+
+
+def test_no_constraints_sends_no_schema_and_a_server_ignoring_it_is_read_as_text(fake: FakeServer) -> None:
+    fake.script = [Answer(body=chat_body())]
+    reply = backend_for(fake, response_format=False).complete(constrained_request())
+    assert "response_format" not in fake.requests[-1]["json"]
+    assert reply.text == "Optimal Actions: Walk_apple"
+    assert backend_for(fake).complete(constrained_request()).text == "Optimal Actions: Walk_apple"  # ignored

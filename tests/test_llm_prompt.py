@@ -3,6 +3,7 @@ and reflective feedback, and how large the prompts are."""
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import re
 import statistics
@@ -17,6 +18,7 @@ from hbtp.llm.backend import Request
 from hbtp.llm.pool import example_pool
 from hbtp.llm.prompt import (
     COMPLETION_MAX_TOKENS,
+    CONSTRAINED_MAX_TOKENS,
     Feedback,
     PromptOptions,
     build_request,
@@ -204,7 +206,9 @@ def test_completion_request_ends_with_the_question_after_the_closest_demonstrati
     blocks = prompt.split("\n\n")
     assert blocks[-2].startswith(f"Goals: {examples[0].goal.strip()}\nOptimal Actions: ")
     assert blocks[0].startswith(f"Goals: {examples[-1].goal.strip()}\n")
-    assert request.max_tokens == COMPLETION_MAX_TOKENS
+    assert request.max_tokens == CONSTRAINED_MAX_TOKENS  # the grammar ends the reply; this guards a runaway
+    free = build_request(robothow_small.task, GOAL, pool, dataclasses.replace(options, constrain=False))
+    assert free.max_tokens == COMPLETION_MAX_TOKENS
 
 
 def test_zero_examples(robowaiter: Scenario) -> None:

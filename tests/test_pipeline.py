@@ -140,7 +140,10 @@ def assert_round_records_complete(loop: LoopResult, task_actions: int) -> None:
 
 
 def without_timing(loop: LoopResult) -> list[Any]:
-    return [dataclasses.replace(r, llm_seconds=0.0, planning_seconds=0.0) for r in loop.rounds]
+    def untimed(calls: tuple[dict[str, Any], ...]) -> tuple[dict[str, Any], ...]:
+        return tuple({k: v for k, v in call.items() if k not in ("seconds", "tokens_per_second")} for call in calls)
+
+    return [dataclasses.replace(r, llm_seconds=0.0, planning_seconds=0.0, calls=untimed(r.calls)) for r in loop.rounds]
 
 
 @pytest.fixture(scope="module")

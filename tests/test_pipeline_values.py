@@ -88,9 +88,11 @@ def test_the_loop_uses_the_backends_style_unless_one_is_chosen(robowaiter: Scena
         def close(self) -> None:
             pass
 
-    assert str(run_hbtp(robowaiter, "Exists_Coffee", Base()).outcome) == "NF"
+    # Free text (no constraint), so the completion style shows in its own token budget.
+    free = LoopOptions(prompt=PromptOptions(constrain=False))
+    assert str(run_hbtp(robowaiter, "Exists_Coffee", Base(), (), free).outcome) == "NF"
     assert asked[-1].max_tokens == COMPLETION_MAX_TOKENS
-    chat = LoopOptions(prompt=PromptOptions(style="chat"))
+    chat = LoopOptions(prompt=PromptOptions(style="chat", constrain=False))
     assert run_hbtp(robowaiter, "Exists_Coffee", Base(), (), chat).solved
     assert asked[-1].max_tokens == PromptOptions().max_tokens
     assert PromptOptions(style="completion").style is PromptStyle.COMPLETION

@@ -186,6 +186,7 @@ def _backend(
     prompt_cache: bool,
     noise_drop: float,
     noise_insert: float,
+    no_constraints: bool,
 ) -> BackendOptions:
     return BackendOptions(
         model=model,
@@ -197,12 +198,13 @@ def _backend(
         prompt_cache=prompt_cache,
         drop=noise_drop,
         insert=noise_insert,
+        constrain=not no_constraints,
     )
 
 
 #: The LLM back-end options (``--model``, ``--base-url``, ``--api-key``, ``--llm-timeout``,
-#: ``--model-path``, ``--threads``, ``--prompt-cache``, ``--noise-drop``, ``--noise-insert``), passed on
-#: as ``backend: BackendOptions``.
+#: ``--model-path``, ``--threads``, ``--prompt-cache``, ``--noise-drop``, ``--noise-insert``,
+#: ``--no-constraints``), passed on as ``backend: BackendOptions``.
 backend_options = option_group(
     "backend",
     _backend,
@@ -227,6 +229,12 @@ backend_options = option_group(
     click.option("--noise-drop", type=float, default=0.3, show_default=True, help="noisy-oracle: fraction dropped."),
     click.option(
         "--noise-insert", type=float, default=0.3, show_default=True, help="noisy-oracle: wrong actions added."
+    ),
+    click.option(
+        "--no-constraints",
+        is_flag=True,
+        help="Free-text replies: no grammar (local) and no response_format schema (openai), for servers "
+        "that reject them (a refusal is also detected and the call answered without).",
     ),
 )
 

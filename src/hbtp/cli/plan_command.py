@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import sys
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import cast
@@ -33,11 +34,14 @@ from hbtp.cli.tree_input import pddl_files
 from hbtp.domains import Scenario
 from hbtp.errors import InputError
 from hbtp.files import write_all_atomically
+from hbtp.llm.backend import Backend
+from hbtp.llm.backends.local import LocalBackend
 from hbtp.llm.backends.registry import BackendOptions, make_backend
 from hbtp.llm.pool import example_pool
 from hbtp.llm.prompt import PromptOptions
 from hbtp.logic.task import Goal
 from hbtp.pipeline import LoopOptions, LoopResult, run_hbtp
+from hbtp.pipeline.loop import Progress
 from hbtp.planning import PLANNER_DESCRIPTIONS, PLANNERS, Limits, plan
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
 from hbtp.planning.planners import check_alpha
@@ -157,7 +161,7 @@ class LlmRequest:
     seed: int
     record: str | None
 
-    def loop_options(self, search: SearchRequest) -> LoopOptions:
+    def loop_options(self, search: SearchRequest, progress: Progress | None = None) -> LoopOptions:
         return LoopOptions(
             planner=search.planner,
             feedback_rounds=self.feedback_rounds,
@@ -168,6 +172,7 @@ class LlmRequest:
             fallback_heuristic=cast(HeuristicName, search.heuristic),
             prompt=PromptOptions(examples=self.examples, retrieval=self.retrieval),
             time_limit=search.time_limit,  # -t bounds the whole loop: LLM calls, rounds and the fallback
+            progress=progress,
         )
 
 
@@ -257,12 +262,35 @@ def _run_llm(spec: str, request: PlanRequest, loaded: Scenario, goal: Goal) -> L
         raise InputError("use either --llm or --hints, not both")
     if not options.round_time_limit > 0:
         raise InputError(f"--round-time-limit must be positive, not {options.round_time_limit}")
+    progress = _progress(request.outputs.as_json)
     llm = make_backend(spec, loaded, replace(options.backend, seed=options.seed, record=options.record))
     try:
+        if progress is not None:
+            _load(llm, progress)
         pool = example_pool(loaded, options.examples_from)
-        return run_hbtp(loaded, goal, llm, pool, options.loop_options(request.search))
+        return run_hbtp(loaded, goal, llm, pool, options.loop_options(request.search, progress))
     finally:
         llm.close()
+
+
+def _progress(as_json: bool) -> Progress | None:
+    """What the LLM loop is doing, on stderr, when stderr is a terminal and the output is not JSON."""
+    if as_json or not sys.stderr.isatty():
+        return None
+
+    def show(message: str) -> None:
+        click.echo(f"hbtp: {message}", err=True)
+
+    return show
+
+
+def _load(backend: Backend, progress: Progress) -> None:
+    """Load a local model now, saying so (it is assembled on first use, then loaded in seconds)."""
+    inner = getattr(backend, "inner", backend)  # --record wraps the backend
+    if isinstance(inner, LocalBackend) and not inner.loaded:
+        progress(f"loading the local model {inner.name} (assembled into the model cache on first use)")
+        inner.load()
+        progress(f"model loaded in {inner.load_seconds or 0:.1f} s")
 
 
 @dataclass(frozen=True)

@@ -19,6 +19,8 @@ import json
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from hbtp.llm.constrain import Constraint
+
 
 class PromptStyle(enum.Enum):
     """Which shape of a :class:`Request` a backend reads."""
@@ -50,6 +52,8 @@ class Request:
     #: Seconds this one call may take at most (the loop's remaining budget), or ``None``; a backend
     #: that can stops by then (the OpenAI backend uses the smaller of this and its own timeout).
     time_limit: float | None = None
+    #: The reply's grammar and JSON schema (constrained decoding), or ``None``: free text.
+    constraint: Constraint | None = None
 
     def key(self) -> str:
         """A stable hash of what the model is asked (for record/replay).
@@ -58,6 +62,9 @@ class Request:
         and the seed. ``max_tokens`` and ``stop`` are left out: they are defaults of the prompt
         style (chat or completion) rather than part of the question, so a run recorded with one
         backend replays with another; ``round``, ``attempt`` and ``time_limit`` are bookkeeping.
+        The ``constraint`` is left out too: it is a function of the scenario and only narrows the
+        replies, so files recorded with or without it replay either way (a replayed free-text reply
+        goes through the grammar checker like any other).
         """
         payload = {
             "messages": [[m.role, m.content] for m in self.messages],
@@ -65,7 +72,27 @@ class Request:
             "temperature": self.temperature,
             "seed": self.seed,
         }
-        return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
+        return _digest(payload)
+
+    def sent_key(self, style: PromptStyle) -> str:
+        """A hash of what a backend of ``style`` is sent: two requests with the same one get the
+        same greedy answer, so the second need not be sent (a completion backend never sees the
+        chat turns, a chat backend never sees the completion prompt)."""
+        payload = {
+            "prompt": self.completion_prompt
+            if style is PromptStyle.COMPLETION
+            else [[m.role, m.content] for m in self.messages],
+            "temperature": self.temperature,
+            "seed": self.seed,
+            "constraint": None if self.constraint is None else self.constraint.gbnf,
+            "max_tokens": self.max_tokens,
+            "stop": list(self.stop),
+        }
+        return _digest(payload)
+
+
+def _digest(payload: dict[str, Any]) -> str:
+    return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
 
 
 @dataclass(frozen=True)

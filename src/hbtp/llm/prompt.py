@@ -25,6 +25,7 @@ from typing import Any
 from hbtp.datasets.records import Record
 from hbtp.errors import InputError
 from hbtp.llm.backend import Message, PromptStyle, Request
+from hbtp.llm.constrain import Bounds, Constraint, constraint_of
 from hbtp.llm.vocabulary import vocabulary_of
 from hbtp.logic.atoms import parse_conjunction
 from hbtp.logic.task import GroundTask
@@ -46,6 +47,8 @@ RETRIEVALS = ("lexical", "embeddings")
 
 #: Three short lines; a base model that starts repeating itself is cut off here.
 COMPLETION_MAX_TOKENS = 160
+#: A constrained reply ends with its grammar (bounded lists); this only guards against a runaway.
+CONSTRAINED_MAX_TOKENS = 256
 
 #: Demonstrations added per feedback round (a base model cannot follow the feedback's instructions).
 FEEDBACK_EXTRA_EXAMPLES = 2
@@ -61,6 +64,9 @@ class PromptOptions:
     max_tokens: int = 256  # chat; completion replies get COMPLETION_MAX_TOKENS
     exclude_same_goal: bool = False  # benchmarks: never show a demonstration of the very goal asked
     retrieval: str = "lexical"  # or "embeddings" (the optional extra)
+    #: Constrained decoding (:mod:`hbtp.llm.constrain`): requests carry the reply's grammar and
+    #: schema, with lists bounded by the demonstrations shown; backends that can, enforce it.
+    constrain: bool = True
 
     def __post_init__(self) -> None:
         if isinstance(self.style, str):
@@ -178,16 +184,30 @@ def build_request(
     )
     completion = (closest_last + "\n\n" if closest_last else "") + (avoid_text + "\n" if avoid_text else "")
     completion += f"Goals: {goal_text}\nOptimal Actions:"
+    constraint = _constraint(task, examples, options)
     return Request(
         messages=(Message("system", system), Message("user", f"Goals: {goal_text}" + _suffix(avoid_text))),
         completion_prompt=completion,
         goal=goal_text,
         scenario=scenario,
-        max_tokens=min(options.max_tokens, COMPLETION_MAX_TOKENS)
-        if options.style is PromptStyle.COMPLETION
-        else options.max_tokens,
+        max_tokens=_max_tokens(options, constraint),
         stop=("\n\n", "Goals:"),
+        constraint=constraint,
     )
+
+
+def _constraint(task: GroundTask, examples: Sequence[Record], options: PromptOptions) -> Constraint | None:
+    """The reply's constraint, its lists bounded by the longest of the ``examples`` shown."""
+    if not options.constrain:
+        return None
+    lengths = [(len(r.optimal_actions), len(r.vital_predicates), len(r.vital_objects)) for r in examples]
+    return constraint_of(task, Bounds.after(lengths))
+
+
+def _max_tokens(options: PromptOptions, constraint: Constraint | None) -> int:
+    if options.style is not PromptStyle.COMPLETION:
+        return options.max_tokens
+    return min(options.max_tokens, CONSTRAINED_MAX_TOKENS if constraint else COMPLETION_MAX_TOKENS)
 
 
 def _format_examples(task: GroundTask) -> list[str]:

@@ -10,7 +10,10 @@ LLM-free landmark heuristic, so every solvable task is solved. The LLM can make 
 slow, never wrong: every tree comes from the sound search and is executed before it is returned.
 
 A round whose LLM call failed without any answer plans nothing (its space is the previous round's,
-already searched) and ends the asking: the loop goes to the fallback at once.
+already searched) and ends the asking: the loop goes to the fallback at once. So does a round whose
+question the backend has already answered at temperature 0 (it would answer the same), and a grammar
+retry whose prompt did not change is not sent: no call is wasted. Every call is counted and timed
+(``RoundRecord.calls``).
 
 ``LoopOptions.time_limit`` bounds the whole run (``hbtp plan -t``): every LLM call gets the time
 that is left (``Request.time_limit``), every round's search at most that, no round starts once it is
@@ -23,8 +26,9 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 from hbtp.datasets.records import Record
 from hbtp.domains.scenarios import Scenario
@@ -35,7 +39,7 @@ from hbtp.llm.parse import parse_reply
 from hbtp.llm.prompt import Feedback, PromptOptions, build_request, feedback_request, retry_request
 from hbtp.llm.redact import redact
 from hbtp.logic.task import Goal
-from hbtp.pipeline.results import Exchange, LoopResult, Outcome, RoundRecord
+from hbtp.pipeline.results import REPEATED, Exchange, LoopResult, Outcome, RoundRecord, call_record
 from hbtp.planning.heuristics import HeuristicName
 from hbtp.planning.hints import Hints, ResolvedHints, pruned_action_space, resolve_hints
 from hbtp.planning.limits import Limits
@@ -46,6 +50,13 @@ from hbtp.planning.search import search
 __all__ = ["LoopOptions", "LoopResult", "RoundRecord", "longest_paths", "run_hbtp"]
 
 log = logging.getLogger(__name__)
+
+#: Told what the loop is doing, one short line at a time (``hbtp plan`` shows it on a terminal).
+Progress = Callable[[str], None]
+
+
+def _quiet(message: str) -> None:
+    log.debug("%s", message)
 
 
 @dataclass(frozen=True)
@@ -63,6 +74,8 @@ class LoopOptions:
     prompt: PromptOptions = field(default_factory=PromptOptions)
     #: Seconds for the whole run (LLM calls, rounds and fallback); ``None``: no overall bound.
     time_limit: float | None = None
+    #: Told what the loop is doing (round k of N, tokens/s, planning); ``None``: logged at DEBUG.
+    progress: Progress | None = None
 
 
 def longest_paths(result: PlanResult, task_names: Sequence[str], k: int) -> list[list[str]]:
@@ -88,18 +101,24 @@ def longest_paths(result: PlanResult, task_names: Sequence[str], k: int) -> list
 
 
 class _Asker:
-    """Asks the LLM once per round, with grammar retries; keeps the blacklist of the whole run."""
+    """Asks the LLM once per round, with grammar retries; keeps the blacklist of the whole run.
 
-    def __init__(self, scenario: Scenario, backend: Backend, retries: int) -> None:
+    A request is never sent twice at temperature 0: a backend of the same prompt style would see
+    the same text and answer the same, so a retry whose prompt did not change is not sent, and a
+    round whose question was already answered is skipped (it cannot help)."""
+
+    def __init__(self, scenario: Scenario, backend: Backend, retries: int, progress: Progress) -> None:
         self.task = scenario.task
         self.backend = backend
         self.retries = retries
+        self.progress = progress
         self.blacklist: list[str] = []
+        self.answered: set[str] = set()
 
     def ask(self, request: Request, deadline: float) -> Exchange:
         prompts: list[Request] = []
         replies: list[str] = []
-        seconds = 0.0
+        calls: list[dict[str, Any]] = []
         check: GrammarCheck | None = None
         error = ""
         for attempt in range(self.retries + 1):
@@ -108,7 +127,14 @@ class _Asker:
                 if not replies:
                     error = "the time limit ran out before the LLM was asked"
                 break
+            if self.repeated(request):
+                if not replies:
+                    error = REPEATED
+                else:  # continue from the last request that was answered
+                    request = prompts[-1]
+                break
             prompts.append(request)
+            self.progress(f"asking {self.backend.name}" + _retry_note(attempt))
             try:
                 reply = self.backend.complete(request if math.isinf(left) else replace(request, time_limit=left))
             except BackendError as failure:
@@ -117,13 +143,20 @@ class _Asker:
                 if replies:  # continue from the last request that was answered
                     request = prompts[-2]
                 break
-            seconds += reply.seconds
+            self.answered.add(request.sent_key(self.backend.prompt_style))
             replies.append(reply.text)
             check = self.check(reply.text)
+            calls.append(call_record(request, reply, check))
+            self.progress(_call_summary(calls[-1]))
             if check.clean or not check.problems or attempt == self.retries:
                 break  # (no retry request after the last attempt: it would never be answered)
             request = retry_request(request, reply.text, check.problems, self.blacklist)
-        return Exchange(request, tuple(prompts), tuple(replies), check, seconds, error)
+        seconds = sum(float(call["seconds"]) for call in calls)
+        return Exchange(request, tuple(prompts), tuple(replies), check, seconds, error, tuple(calls))
+
+    def repeated(self, request: Request) -> bool:
+        """Whether the backend already answered, greedily, what it would now be sent."""
+        return request.temperature <= 0 and request.sent_key(self.backend.prompt_style) in self.answered
 
     def check(self, text: str) -> GrammarCheck:
         """The grammar check of a reply; its unknown names join the blacklist."""
@@ -133,6 +166,18 @@ class _Asker:
         check = check_reply(parsed, self.task)
         self.blacklist.extend(n for n in check.unknown if n not in self.blacklist)
         return check
+
+
+def _retry_note(attempt: int) -> str:
+    return f" again (grammar retry {attempt})" if attempt else ""
+
+
+def _call_summary(call: dict[str, Any]) -> str:
+    rate = call.get("tokens_per_second")
+    speed = f", {rate:.1f} tokens/s" if rate else ""
+    tokens = call.get("completion_tokens")
+    size = f"{tokens} tokens" if tokens is not None else "a reply"
+    return f"answered: {size} in {call['seconds']:.2f} s{speed}, {call['unknown']} unknown name(s)"
 
 
 class _Loop:
@@ -147,7 +192,8 @@ class _Loop:
         self.pool, self.options = pool, options
         self.prompt = options.prompt.for_backend(backend.prompt_style)
         self.config = planner_config(options.planner, heuristic=options.heuristic)
-        self.asker = _Asker(scenario, backend, options.grammar_retries)
+        self.progress = options.progress or _quiet
+        self.asker = _Asker(scenario, backend, options.grammar_retries, self.progress)
         self.names = [a.signature.underscored for a in self.task.actions]
         self.rounds: list[RoundRecord] = []
         self.llm_seconds = self.planning_seconds = 0.0
@@ -177,6 +223,7 @@ class _Loop:
             self.request = feedback_request(
                 self.request, self.rounds[-1].replies[-1], self.feedback(), self.pool, self.prompt, self.asker.blacklist
             )
+        self.progress(f"round {number + 1} of {self.options.feedback_rounds + 1}")
         exchange = self.asker.ask(self.request, self.deadline)
         self.request = exchange.request
         self.llm_seconds += exchange.seconds
@@ -191,6 +238,7 @@ class _Loop:
         if left <= 0:
             log.info("the time limit ran out before round %d could plan", number)
             return None
+        self.progress(f"planning in {len(space)} of {len(self.task.actions)} actions")
         started = time.perf_counter()
         # Declared mutexes speed the rounds up; without a fallback, a failed round's verdict is the
         # answer, so it must not rest on them (confirmed_search re-decides it without them).
@@ -229,6 +277,7 @@ class _Loop:
             return self.result(
                 Outcome.FAILED, PlanResult(Status.TIMEOUT, self.options.planner, self.goal, message=message)
             )
+        self.progress("fallback: planning in the full action space")
         started = time.perf_counter()
         # The fallback prunes with proved mutexes only: declared ones could cut off the only solution.
         final = plan(

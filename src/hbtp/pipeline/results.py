@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from hbtp.errors import InputError
-from hbtp.llm.backend import Request
+from hbtp.llm.backend import Reply, Request
 from hbtp.llm.grammar import GrammarCheck
 from hbtp.llm.redact import redact
 from hbtp.planning.hints import Hints
@@ -98,6 +98,31 @@ class RoundStatus(enum.Enum):
         return self.value
 
 
+#: The error of a round that was not asked: the backend had answered the very same question.
+REPEATED = "the LLM already answered this very question (temperature 0), so the round cannot help"
+
+
+def call_record(request: Request, reply: Reply, check: GrammarCheck) -> dict[str, Any]:
+    """One backend call as ``--json`` shows it: which request, how long, how many tokens and how
+    fast, how it ended, and how many names of the reply were unknown to the domain."""
+    tokens = reply.completion_tokens
+    rate = reply.meta.get("predicted_per_second")
+    if rate is None and tokens and reply.seconds > 0:
+        rate = tokens / reply.seconds
+    return {
+        "round": request.round,
+        "attempt": request.attempt,
+        "key": request.key(),
+        "seconds": round(reply.seconds, 6),
+        "prompt_tokens": reply.prompt_tokens,
+        "completion_tokens": tokens,
+        "tokens_per_second": None if rate is None else round(float(rate), 2),
+        "finish_reason": reply.meta.get("finish_reason"),
+        "constrained": bool(reply.meta.get("constrained", False)),
+        "unknown": len(check.unknown),
+    }
+
+
 @dataclass(frozen=True)
 class Exchange:
     """What one round asked and was answered: every request sent (grammar retries included), the
@@ -109,6 +134,7 @@ class Exchange:
     check: GrammarCheck | None
     seconds: float
     error: str = ""
+    calls: tuple[dict[str, Any], ...] = ()  # one :func:`call_record` per backend call
 
     @property
     def hints(self) -> Hints:
@@ -144,6 +170,7 @@ class RoundRecord:
     llm_seconds: float
     planning_seconds: float
     error: str = ""
+    calls: tuple[dict[str, Any], ...] = ()
 
     @classmethod
     def of(
@@ -169,6 +196,7 @@ class RoundRecord:
             exchange.seconds,
             result.stats.time_s if result is not None else 0.0,
             exchange.error,
+            exchange.calls,
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -189,6 +217,7 @@ class RoundRecord:
             "llm_seconds": round(self.llm_seconds, 6),
             "planning_seconds": round(self.planning_seconds, 6),
             "error": redact(self.error),
+            "calls": [dict(call) for call in self.calls],
         }
 
 
@@ -209,5 +238,6 @@ class LoopResult:
             "outcome": self.outcome.label,
             "llm_seconds": round(self.llm_seconds, 6),
             "planning_seconds": round(self.planning_seconds, 6),
+            "llm_calls": sum(len(r.calls) for r in self.rounds),
             "rounds": [r.to_dict() for r in self.rounds],
         }

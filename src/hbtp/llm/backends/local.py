@@ -299,7 +299,10 @@ class LocalBackend:
     llama.cpp's prompt cache, so a few-shot prefix common to many requests is evaluated once; that
     is faster, but llama.cpp's logits then depend on which earlier request left the prefix in the
     cache, so a greedy answer can change with the order of the requests. Off by default: the same
-    prompt always gets the same answer. Safe to call from several threads (llama.cpp queues the
+    prompt always gets the same answer. A request's ``constraint`` is sent as llama.cpp's
+    ``grammar`` (constrained decoding: the reply is the three bounded lists of existing names and
+    ends with them); if llama.cpp refuses the grammar, a warning is logged and this backend answers
+    without constraints from then on. Safe to call from several threads (llama.cpp queues the
     requests).
     """
 
@@ -312,6 +315,7 @@ class LocalBackend:
         context: int = 4096,
         seed: int = 0,
         prompt_cache: bool = False,
+        constrain: bool = True,
     ) -> None:
         if importlib.util.find_spec("xllamacpp") is None:
             raise BackendError(f"the local model needs xllamacpp; {_INSTALL_LOCAL}")
@@ -322,6 +326,8 @@ class LocalBackend:
         self.context = context
         self.seed = seed
         self.prompt_cache = prompt_cache
+        #: Send a request's grammar (``Request.constraint``); turned off if llama.cpp refuses one.
+        self.constrain = constrain
         self.name = f"local:{self.model_path.stem if self.model_path else DEFAULT_MODEL_ALIAS}"
         #: Seconds the model took to load (``None`` until it is loaded).
         self.load_seconds: float | None = None
@@ -378,18 +384,32 @@ class LocalBackend:
         }
         if request.temperature <= 0:
             body["top_k"] = 1
+        if request.constraint is not None and self.constrain:
+            body["grammar"] = request.constraint.gbnf
         started = time.perf_counter()
-        try:
-            result = server.handle_completions(body)
-        except Exception as error:  # the binding raises plain exceptions; report them as backend failures
-            raise BackendError(f"the local model failed: {type(error).__name__}: {error}") from None
+        result = self._answer(server, body)
         reply = reply_from_result(result, time.perf_counter() - started, model=str(self.model_path))
+        reply.meta["constrained"] = "grammar" in body and self.constrain
         if loaded_here and self.load_seconds is not None:
             reply.meta["load_seconds"] = round(self.load_seconds, 3)
         log.debug(
             "local model: %s prompt tokens, %s out, %.2f s", reply.prompt_tokens, reply.completion_tokens, reply.seconds
         )
         return reply
+
+    def _answer(self, server: Any, body: dict[str, Any]) -> Any:
+        """llama.cpp's answer to ``body``; a grammar it refuses is dropped (once, with a warning)
+        and the request answered as free text, which the grammar checker reads as before."""
+        try:
+            result = server.handle_completions(body)
+            error = result.get("error") if isinstance(result, dict) else None
+            if "grammar" in body and error is not None and "grammar" in str(error).lower():
+                log.warning("llama.cpp refused the reply grammar (%s); answering without constraints", error)
+                self.constrain = False
+                result = server.handle_completions({k: v for k, v in body.items() if k != "grammar"})
+        except Exception as error:  # the binding raises plain exceptions; report them as backend failures
+            raise BackendError(f"the local model failed: {type(error).__name__}: {error}") from None
+        return result
 
     def close(self) -> None:
         """Free the model (a later :meth:`complete` loads it again)."""

@@ -15,6 +15,13 @@ doubled each time, at most 8 s, with jitter; a ``Retry-After`` of up to 60 s is 
 connection, a timeout and every other HTTP error fail at once with a one-line :class:`BackendError`
 that says what happened and how to fix it.
 
+Constrained decoding: a request's ``constraint`` goes to chat endpoints as ``response_format``
+(a JSON schema of the three lists; llama.cpp's server, vLLM and OpenAI enforce it) and to the
+completions endpoint as llama.cpp's ``grammar``; a JSON answer is turned back into the three lines.
+A server that refuses it (HTTP 400 or 422) is asked again at once without it, and not sent one
+again; ``response_format=False`` (``--no-response-format``) never sends one. A server that ignores
+it answers in text, which the grammar checker reads as before.
+
 Bounds: ``timeout`` (or the request's ``time_limit``, when smaller) bounds the *whole* call: the
 model list, every attempt, the backoff between them and the reading of the reply. Each attempt runs
 in a helper thread that is abandoned (and its connections closed) at the deadline, so a server that
@@ -34,6 +41,7 @@ import logging
 import math
 import os
 import random
+import re
 import threading
 import time
 from collections.abc import Callable, Iterable
@@ -43,6 +51,7 @@ from urllib.parse import urlsplit
 
 from hbtp.errors import BackendError
 from hbtp.llm.backend import PromptStyle, Reply, Request
+from hbtp.llm.constrain import reply_from_json, response_format
 from hbtp.llm.redact import redact, remember_secret
 
 log = logging.getLogger(__name__)
@@ -59,6 +68,10 @@ MAX_RETRY_AFTER = 60.0
 MAX_REPLY_BYTES = 2_000_000
 
 _T = TypeVar("_T")
+#: The arguments that carry a request's constraint.
+_CONSTRAINT_FIELDS = frozenset({"response_format", "extra_body"})
+#: A server's refusal of a constraint it does not support (HTTP 400 or 422 from the server).
+_REFUSALS = re.compile(r"HTTP (400|422)")
 
 
 class _Deadline(Exception):
@@ -185,6 +198,7 @@ class OpenAIBackend:
         use_completions: bool = False,
         *,
         retry_delay: float = 0.5,
+        response_format: bool = True,
     ) -> None:
         if not (timeout > 0 and math.isfinite(timeout)):
             raise BackendError(f"the LLM timeout (--llm-timeout) must be a positive number of seconds, not {timeout}")
@@ -216,6 +230,9 @@ class OpenAIBackend:
         self.max_retries = max_retries
         self.retry_delay = retry_delay
         self.use_completions = use_completions
+        #: Send a request's constraint (chat: ``response_format`` with the JSON schema; completions:
+        #: llama.cpp's ``grammar``); turned off after a server refuses one with HTTP 400 or 422.
+        self.response_format = response_format
         self.name = f"openai:{self.model or 'auto'}@{self.base_url}"
         self._max_tokens_field = "max_tokens"
         self._key = key
@@ -237,6 +254,45 @@ class OpenAIBackend:
             limit = max(0.0, request.time_limit)
         deadline = started + limit
         model = self._resolve_model(deadline, limit)
+        arguments, endpoint = self._arguments(request, model)
+
+        def send(client: Any, seconds: float) -> Any:
+            resource = client.completions if self.use_completions else client.chat.completions
+            with resource.with_streaming_response.create(
+                **arguments, **{self._max_tokens_field: request.max_tokens}, timeout=seconds
+            ) as response:
+                return self._body(response, deadline)
+
+        try:
+            response, retries = self._call(send, what=f"model {model!r}", deadline=deadline, limit=limit)
+        except BackendError as error:
+            if not _CONSTRAINT_FIELDS & arguments.keys() or not _REFUSALS.search(str(error)):
+                raise
+            log.warning("%s; asking again without constraints (--no-response-format)", error)
+            self.response_format = False
+            for name in _CONSTRAINT_FIELDS:
+                arguments.pop(name, None)
+            response, retries = self._call(send, what=f"model {model!r}", deadline=deadline, limit=limit)
+        text, finish = self._extract(response)
+        usage = _dict(response.get("usage"))
+        constrained = bool(_CONSTRAINT_FIELDS & arguments.keys())
+        return Reply(
+            text=(reply_from_json(text) or text) if constrained else text,
+            seconds=time.perf_counter() - started,
+            prompt_tokens=_int_or_none(usage.get("prompt_tokens")),
+            completion_tokens=_int_or_none(usage.get("completion_tokens")),
+            meta={
+                "model": response.get("model") or model,
+                "endpoint": endpoint,
+                "finish_reason": finish,
+                "retries": retries,
+                "constrained": constrained,
+            },
+        )
+
+    def _arguments(self, request: Request, model: str) -> tuple[dict[str, Any], str]:
+        """The request's arguments for the client (and the endpoint's name): the prompt, sampling,
+        stop strings and, with ``response_format``, the reply's constraint."""
         if self.use_completions:
             if not request.completion_prompt.strip():
                 raise BackendError("use_completions needs request.completion_prompt, but it is empty")
@@ -254,29 +310,12 @@ class OpenAIBackend:
         arguments["seed"] = request.seed
         if request.stop:
             arguments["stop"] = list(request.stop)
-
-        def send(client: Any, seconds: float) -> Any:
-            resource = client.completions if self.use_completions else client.chat.completions
-            with resource.with_streaming_response.create(
-                **arguments, **{self._max_tokens_field: request.max_tokens}, timeout=seconds
-            ) as response:
-                return self._body(response, deadline)
-
-        response, retries = self._call(send, what=f"model {model!r}", deadline=deadline, limit=limit)
-        text, finish = self._extract(response)
-        usage = _dict(response.get("usage"))
-        return Reply(
-            text=text,
-            seconds=time.perf_counter() - started,
-            prompt_tokens=_int_or_none(usage.get("prompt_tokens")),
-            completion_tokens=_int_or_none(usage.get("completion_tokens")),
-            meta={
-                "model": response.get("model") or model,
-                "endpoint": endpoint,
-                "finish_reason": finish,
-                "retries": retries,
-            },
-        )
+        if request.constraint is not None and self.response_format:
+            if self.use_completions:  # llama.cpp's own field: a base model continues the three lines
+                arguments["extra_body"] = {"grammar": request.constraint.gbnf}
+            else:
+                arguments["response_format"] = response_format(request.constraint)
+        return arguments, endpoint
 
     def close(self) -> None:
         """Close the HTTP connections."""

@@ -27,6 +27,7 @@ class BackendOptions:
     seed: int = 0
     record: str | None = None  # wrap the backend and record every exchange to this JSONL file
     prompt_cache: bool = False  # local: reuse llama.cpp's prompt cache (faster, answers depend on order)
+    constrain: bool = True  # send the reply's grammar (local) or JSON schema (openai)
 
 
 def make_backend(spec: str, scenario: Scenario, options: BackendOptions = BackendOptions()) -> Backend:
@@ -44,13 +45,21 @@ def make_backend(spec: str, scenario: Scenario, options: BackendOptions = Backen
         from hbtp.llm.backends.openai_backend import OpenAIBackend
 
         backend = OpenAIBackend(
-            model=options.model, base_url=options.base_url, api_key=options.api_key, timeout=options.timeout
+            model=options.model,
+            base_url=options.base_url,
+            api_key=options.api_key,
+            timeout=options.timeout,
+            response_format=options.constrain,
         )
     elif spec == "local":
         from hbtp.llm.backends.local import LocalBackend
 
         backend = LocalBackend(
-            model_path=options.model_path, threads=options.threads, seed=options.seed, prompt_cache=options.prompt_cache
+            model_path=options.model_path,
+            threads=options.threads,
+            seed=options.seed,
+            prompt_cache=options.prompt_cache,
+            constrain=options.constrain,
         )
     else:
         raise InputError(f"unknown LLM backend {spec!r}; choose one of: {', '.join(BACKENDS)}")
