@@ -23,6 +23,7 @@ from hbtp import __version__
 from hbtp.cli.bench_commands import bench
 from hbtp.cli.dataset_commands import dataset
 from hbtp.cli.domain_commands import export_pddl, ground, scenarios
+from hbtp.cli.examples_command import examples
 from hbtp.cli.exit_codes import ExitCode, error_line, exit_code_for
 from hbtp.cli.export_command import export_command
 from hbtp.cli.plan_command import plan_command
@@ -60,6 +61,7 @@ cli.add_command(run_command)
 cli.add_command(verify_command)
 bench.add_command(robustness)
 cli.add_command(validate_optimal)
+cli.add_command(examples)
 
 
 class _PipeSafeOutput:

@@ -138,18 +138,25 @@ def _warn_once(message: str) -> None:
 # ------------------------------------------------------------------------------ read and write
 def read_cached(entry: CacheEntry) -> CachedScenario | None:
     """The scenario cached at ``entry``, or ``None`` (no file, or an invalid one: warned and ignored)."""
-    path = entry.path
-    try:
-        data = _read_regular_file(path)
-    except FileNotFoundError:
-        return None
-    except OSError as error:
-        log.warning("ignoring the scenario cache %s: %s", path, error.strerror or error)
+    data = read_entry_bytes(entry, "scenario cache")
+    if data is None:
         return None
     try:
         return decode(data, entry.name, entry.key)
     except ValueError as error:  # CacheFormatError, bad JSON or bad UTF-8
-        log.warning("ignoring the scenario cache %s: %s; rebuilding it", path, error)
+        log.warning("ignoring the scenario cache %s: %s; rebuilding it", entry.path, error)
+        return None
+
+
+def read_entry_bytes(entry: CacheEntry, what: str) -> bytes | None:
+    """The bytes of the regular file at ``entry`` (no symbolic link followed), or ``None``: no file,
+    or one that cannot be read (warned, naming it as ``what``)."""
+    try:
+        return _read_regular_file(entry.path)
+    except FileNotFoundError:
+        return None
+    except OSError as error:
+        log.warning("ignoring the %s %s: %s", what, entry.path, error.strerror or error)
         return None
 
 
@@ -177,13 +184,23 @@ def _read_regular_file(path: Path) -> bytes:
 def write_cached(entry: CacheEntry, scenario: CachedScenario) -> None:
     """Write ``scenario`` at ``entry`` through a fresh temporary file; failures are logged, never
     raised (the cache only saves time)."""
-    path = entry.path
     try:
         data = encode(scenario, entry.name, entry.key)
+    except ValueError as error:
+        log.info("could not write the scenario cache %s: %s", entry.path, error)
+        return
+    write_entry_bytes(entry, data, "scenario cache")
+
+
+def write_entry_bytes(entry: CacheEntry, data: bytes, what: str) -> None:
+    """Write ``data`` at ``entry`` through a fresh temporary file in a safe cache folder; failures
+    are logged (naming the file as ``what``), never raised."""
+    path = entry.path
+    try:
         entry.directory.mkdir(mode=0o700, parents=True, exist_ok=True)
         problem = _unsafe_directory(entry.directory)
         if problem is not None:
-            _warn_once(f"not writing the scenario cache {entry.directory}: {problem}")
+            _warn_once(f"not writing the {what} {entry.directory}: {problem}")
             return
         descriptor, temporary = tempfile.mkstemp(prefix=f".{entry.name}-", suffix=".tmp", dir=entry.directory)
         try:
@@ -193,8 +210,8 @@ def write_cached(entry: CacheEntry, scenario: CachedScenario) -> None:
         except BaseException:
             Path(temporary).unlink(missing_ok=True)
             raise
-    except (OSError, ValueError) as error:
-        log.info("could not write the scenario cache %s: %s", path, error)
+    except OSError as error:
+        log.info("could not write the %s %s: %s", what, path, error)
 
 
 # ------------------------------------------------------------------------------ encode

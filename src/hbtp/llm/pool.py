@@ -1,4 +1,6 @@
-"""The few-shot example pool of a scenario: its shipped pool (or the user's file), valid records only."""
+"""The few-shot example pool of a scenario: its shipped pool (or the user's file), valid records
+only; for a domain without one (every ``--pddl`` domain), demonstrations generated from sampled
+goals (:mod:`hbtp.llm.demonstrations`)."""
 
 from __future__ import annotations
 
@@ -8,18 +10,20 @@ from pathlib import Path
 from hbtp.datasets import load_dataset, read_dataset_file, validate_records
 from hbtp.datasets.records import Record
 from hbtp.domains.scenarios import Scenario
+from hbtp.llm.demonstrations import generated_pool
 
 log = logging.getLogger(__name__)
 
 
 def example_pool(scenario: Scenario, path: str | Path | None = None) -> list[Record]:
-    """Records usable as demonstrations: every record whose plan is valid in ``scenario``."""
+    """Records usable as demonstrations: every record whose plan is valid in ``scenario``; a scenario
+    without a pool (and no ``path``) gets generated ones, with a warning."""
     if path is not None:
         records = read_dataset_file(path)
     elif scenario.fewshot is not None:
         records = load_dataset(scenario.fewshot)
     else:
-        return []
+        records = generated_pool(scenario)
     report = validate_records(records, scenario.task)
     invalid = set(report.invalid_ids)
     if invalid:

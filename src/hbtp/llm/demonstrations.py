@@ -1,0 +1,116 @@
+"""Demonstrations for a domain that has none: goals sampled and labelled by the optimal planner.
+
+Every ``--pddl`` domain lacks a few-shot example pool. :func:`generated_pool` makes one with
+:func:`hbtp.planning.generate.generate_records` (level ``any``: 1-3 literals, solved optimally by
+OBTEA with the landmark heuristic) and caches it in the hbtp cache folder
+(:func:`hbtp.domains.cache.cache_dir`, with its safety rules) as a small JSON file holding the
+records in the dataset text format. The key hashes the domain and problem files' contents, the
+grounded task's atoms and actions (so ``--objects`` or ``--keep-fluent`` make another pool), the
+generator's parameters and source, and the hbtp version.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from hbtp import __version__
+from hbtp.datasets import read_text, write_text
+from hbtp.datasets.records import Record
+from hbtp.domains import cache
+from hbtp.domains.scenarios import Scenario
+from hbtp.errors import InputError
+from hbtp.planning import generate
+from hbtp.planning.generate import Sampling
+
+log = logging.getLogger(__name__)
+
+FORMAT = "hbtp-demonstrations"
+VERSION = 1
+WHAT = "demonstration cache"
+
+
+@dataclass(frozen=True, slots=True)
+class PoolSettings:
+    """How many demonstrations a generated pool holds, and how they are sampled."""
+
+    count: int = 30
+    sampling: Sampling = field(default_factory=Sampling)
+    level: str = "any"
+
+
+def pool_key(scenario: Scenario, settings: PoolSettings) -> str:
+    """The hash of everything a generated pool depends on."""
+    digest = hashlib.sha256(f"{FORMAT}|{__version__}|{settings!r}|{settings.sampling.key()}".encode())
+    for path in (scenario.domain_file, scenario.problem_file):
+        try:
+            digest.update(Path(path).read_bytes())
+        except OSError:
+            digest.update(b"\0")  # a generated problem: the task's names below still tell it apart
+    task = scenario.task
+    digest.update("\n".join(map(str, task.atoms)).encode())
+    digest.update("\n".join(f"{a.name} {a.cost}" for a in task.actions).encode())
+    digest.update(" ".join(map(str, sorted(task.initial_state))).encode())
+    for module in (generate.__file__, __file__):
+        digest.update(Path(module).read_bytes())
+    return digest.hexdigest()
+
+
+def _entry_name(scenario: Scenario) -> str:
+    return "demonstrations-" + (re.sub(r"[^A-Za-z0-9.-]+", "_", scenario.name)[:40] or "domain")
+
+
+def generated_pool(scenario: Scenario, settings: PoolSettings = PoolSettings()) -> list[Record]:
+    """The generated demonstrations of ``scenario``: read from the cache, or sampled and cached.
+
+    Logs the warning ``no demonstrations for this domain: generated N from sampled goals (cached at
+    ...)``. A domain too small to sample from gives an empty pool (the prompt then has no examples)
+    with a warning saying so.
+    """
+    key = pool_key(scenario, settings)
+    entry = cache.cache_entry(_entry_name(scenario), key)
+    records = _read(entry) if entry is not None else None
+    if records is None:
+        try:
+            records = generate.generate_records(
+                scenario.task, settings.level, settings.count, settings.sampling, scenario.mutexes
+            )
+        except InputError as error:
+            log.warning("no demonstrations for this domain, and none can be generated (%s): prompts have none", error)
+            return []
+        if entry is not None:
+            cache.write_entry_bytes(entry, _encode(records, entry), WHAT)
+    where = f"cached at {entry.path}" if entry is not None else "not cached: the cache is off"
+    log.warning(
+        "no demonstrations for this domain: generated %d from sampled goals (%s)", len(records), where
+    )  # fmt: skip
+    return records
+
+
+def _encode(records: list[Record], entry: cache.CacheEntry) -> bytes:
+    document = {"format": FORMAT, "version": VERSION, "key": entry.key, "records": write_text(records)}
+    return json.dumps(document, ensure_ascii=False, indent=0).encode()
+
+
+def _read(entry: cache.CacheEntry) -> list[Record] | None:
+    """The records cached at ``entry``; ``None`` when absent or invalid (warned: regenerated)."""
+    data = cache.read_entry_bytes(entry, WHAT)
+    if data is None:
+        return None
+    try:
+        document = json.loads(data)
+        if not isinstance(document, dict) or document.get("format") != FORMAT or document.get("version") != VERSION:
+            raise ValueError(f"not an hbtp demonstration cache of format version {VERSION}")
+        if document.get("key") != entry.key:
+            raise ValueError("it was built from other data (cache key differs)")
+        text = document.get("records")
+        if not isinstance(text, str):
+            raise ValueError("'records' is not text")
+        return read_text(text, str(entry.path))
+    except (ValueError, InputError, RecursionError) as error:
+        log.warning("ignoring the %s %s: %s; generating it again", WHAT, entry.path, error)
+        return None
