@@ -244,3 +244,41 @@ def plot_fig4(summary: dict[str, Any], path: Path) -> bool:
     # Beside the panel: inside it would cover the lines, which fill the D(T) range.
     axes[2].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0)
     return _save(plt, figure, path)
+
+
+def plot_payoff(summary: dict[str, Any], path: Path) -> bool:
+    """``bench payoff``: median time to a verified tree per configuration, against |A| (the grown
+    worlds: with the load, and without it), the Table II sets and the generated levels, if matplotlib
+    is installed."""
+    plt = _pyplot()
+    if plt is None:
+        return False
+    cells = summary["cells"]
+    order = ["obtea+lm", "hbtp-s+lm", *(f"hbtp:{b}" for b in summary["config"]["backends"]), "best LLM-free"]
+    names = [name for name in order if any(name in c["configs"] for c in cells)]
+
+    def series(axis: str, measure: str) -> list[Series]:
+        chosen = [c for c in cells if c["axis"] == axis]
+        xs = tuple(float(c["actions"] or 0) if axis == "size" else float(i) for i, c in enumerate(chosen))
+        return [
+            Series("", name, xs, tuple(c["configs"].get(name, {}).get(f"median_{measure}") for c in chosen))
+            for name in names
+        ]
+
+    figure, axes = plt.subplots(2, 2, figsize=(12, 8.4))
+    panels = (
+        ("size", "total_s", "(a) RobotHow grown: load + model + planning + verification", "grounded actions |A|"),
+        ("size", "solve_s", "(b) the same without the load (world kept loaded)", "grounded actions |A|"),
+        ("set", "total_s", "(c) Table II sets (by mean |p*|), with the load", "test set"),
+        ("level", "total_s", "(d) generated RobotHow tasks, with the load", "difficulty level"),
+    )
+    for axis, (kind, measure, title, xlabel) in zip(axes.flat, panels, strict=True):
+        _draw(axis, series(kind, measure))
+        axis.set(title=title, xlabel=xlabel, ylabel="median seconds to a verified tree")
+        if kind != "size":
+            labels = [c["cell"] for c in cells if c["axis"] == kind]
+            axis.set_xticks(range(len(labels)), labels)
+        axis.set_yscale("log")
+        axis.legend(fontsize=7)
+    figure.suptitle("When does the LLM pay? LLM-guided HBTP against LLM-free planning")
+    return _save(plt, figure, path)

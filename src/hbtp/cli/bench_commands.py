@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from dataclasses import replace
 from pathlib import Path
 from typing import cast
 
@@ -9,6 +11,7 @@ import click
 
 from hbtp.bench.fig3 import Fig3Config, run_fig3
 from hbtp.bench.fig4 import Fig4Config, run_fig4
+from hbtp.bench.payoff import SETS, PayoffConfig, run_payoff
 from hbtp.bench.runner import Execution
 from hbtp.bench.suite import PARTS, SuiteConfig, run_suite
 from hbtp.bench.table1 import Table1Config, run_table1
@@ -30,6 +33,7 @@ from hbtp.llm.backends.registry import BackendOptions
 from hbtp.llm.prompt import PromptOptions
 from hbtp.pipeline import LoopOptions
 from hbtp.planning import PLANNERS
+from hbtp.planning.generate import LEVELS
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
 
 #: Options several benchmarks share.
@@ -319,4 +323,87 @@ def bench_all(
     config = SuiteConfig(quick=quick, parts=comma_choices(parts, PARTS, "--only", "part"), llm=llm_spec, runs=runs)
     run_suite(config, BackendRecipe(llm_spec, backend), Path(out_dir), execution)
     click.echo(f"wrote {Path(out_dir) / 'report.md'} and {Path(out_dir) / 'summary.json'}")
+    return 0
+
+
+#: ``bench payoff`` without ``--quick`` / with it: sets, levels, scales, tasks per cell, seconds.
+PAYOFF_DEFAULTS = (SETS, ("easy", "medium", "hard"), (1.0, 3.0, 6.0), 5, 60.0)
+PAYOFF_QUICK = (("robowaiter", "robothow-small"), ("easy",), (1.0, 1.5), 2, 10.0)
+PAYOFF_LLMS = ("oracle", "noisy-oracle", "local", "openai")
+
+
+def _listed(
+    text: str | None, default: tuple[str, ...], choices: Iterable[str], hint: str, what: str
+) -> tuple[str, ...]:
+    """``--sets`` / ``--levels``: the default when not given, nothing for ``none``, else checked names."""
+    if text is None:
+        return default
+    return () if text == "none" else comma_choices(text, choices, hint, what)
+
+
+def _payoff_axes(
+    sets: str | None, levels: str | None, scales: str | None, tasks: int | None, time_limit: float | None, quick: bool
+) -> PayoffConfig:
+    """The cells of ``bench payoff`` (its backends and loop are set by the command)."""
+    default_sets, default_levels, default_scales, default_tasks, default_limit = (
+        PAYOFF_QUICK if quick else PAYOFF_DEFAULTS
+    )
+    chosen_sets = _listed(sets, default_sets, scenario_names(), "--sets", "scenario")
+    chosen_levels = _listed(levels, default_levels, LEVELS, "--levels", "level")
+    factors = default_scales if scales is None else () if scales == "none" else comma_numbers(scales, "--scales", 20.0)
+    if any(f < 1.0 for f in factors):
+        raise click.BadParameter("every scale must be at least 1", param_hint="--scales")
+    if not (chosen_sets or chosen_levels or factors):
+        raise click.BadParameter("nothing to run: give some --sets, --levels or --scales", param_hint="--sets")
+    limit = default_limit if time_limit is None else time_limit
+    if not (limit > 0 and limit < float("inf")):
+        raise click.BadParameter("must be a positive number of seconds", param_hint="--time-limit")
+    return PayoffConfig(
+        sets=chosen_sets, levels=chosen_levels, scales=factors, tasks=tasks or default_tasks, time_limit=limit
+    )
+
+
+#: ``--sets``, ``--levels``, ``--scales``, ``--tasks``, ``-t``, ``--quick``, passed on as ``axes: PayoffConfig``.
+payoff_axes_options = option_group(
+    "axes",
+    _payoff_axes,
+    click.option("--sets", help="Comma-separated Table II sets, or none (default: all four; --quick: two)."),
+    click.option("--levels", help="Generated RobotHow task levels, or none (default easy,medium,hard; --quick: easy)."),
+    click.option("--scales", help="RobotHow grown by these factors, or none (default 1,3,6; --quick: 1,1.5)."),
+    click.option("--tasks", type=click.IntRange(1, 100), help="Tasks per cell (default 5; --quick: 2)."),
+    click.option("-t", "--time-limit", type=float, help="Seconds per LLM-free search and the fallback (default 60)."),
+    click.option("--quick", is_flag=True, help="Two small sets, easy tasks, two small worlds, two tasks, 10 s."),
+)
+
+
+@bench.command("payoff")
+@click.option("--llm", default="oracle,noisy-oracle", show_default=True, help="Comma-separated LLM backends.")
+@payoff_axes_options
+@backend_options
+@table2_loop_options
+@out_dir_option
+@execution_options
+def payoff(
+    llm: str, axes: PayoffConfig, backend: BackendOptions, loop: LoopOptions, out_dir: str, execution: Execution
+) -> int:
+    """When does the LLM pay? Time to a verified tree, LLM-guided HBTP against the best LLM-free planner."""
+    backends = tuple(part.strip() for part in llm.split(",") if part.strip())
+    unknown = [b for b in backends if b not in PAYOFF_LLMS and not b.startswith("replay:")]
+    if unknown or not backends:
+        raise click.BadParameter(f"unknown backend(s) {', '.join(unknown) or '(none)'}", param_hint="--llm")
+    config = replace(axes, backends=backends, loop=loop)
+    summary = run_payoff(config, backend, Path(out_dir), execution)
+    click.echo(f"{'cell':15} {'|A|':>7} {'configuration':20} {'verified':>8} {'total s':>8} {'solve s':>8}"
+               f" {'ratio':>6}")  # fmt: skip
+    for cell in summary["cells"]:
+        for name, stats in cell["configs"].items():
+            ratio = cell["against"].get(name, {}).get("median_ratio_total")
+            click.echo(
+                f"{cell['cell']:15} {cell['actions'] or 0:>7} {name:20} {stats['verified']:>4}/{stats['tasks']:<3} "
+                f"{_fmt(stats['median_total_s'], 8)} {_fmt(stats['median_solve_s'], 8)} {_fmt(ratio)}"
+            )
+    for axis, by_name in summary["crossings"].items():
+        for name, found in by_name.items():
+            click.echo(f"{axis}: {name} faster (median total) in: {', '.join(found['total_s']['faster_in']) or 'none'}")
+    click.echo(f"wrote {Path(out_dir)}/results.jsonl, summary.json, report.md (and payoff.png with the plot extra)")
     return 0
