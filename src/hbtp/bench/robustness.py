@@ -21,7 +21,7 @@ from typing import Any
 from hbtp.bench.plots import plot_robustness
 from hbtp.bench.report import robustness_section, write_report
 from hbtp.bench.results import ResultsFile, mean, write_json
-from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, hard_limit, run_work
+from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, RunFailure, Work, hard_limit, run_work
 from hbtp.bt import tree_of
 from hbtp.bt.disturb import perturbation_stats
 from hbtp.bt.nodes import Node, size
@@ -202,7 +202,7 @@ def _killed_rows(scenario: str, record: Record, config: RobustnessConfig) -> tup
             "runs": config.runs,
             "seed": config.seed,
             "max_ticks": config.max_ticks,
-            "planned_with": "killed",
+            "planned_with": RunFailure.KILLED.value,
             "explored": None,
             "nodes": None,
             **_NOT_RUN,

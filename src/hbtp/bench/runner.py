@@ -22,6 +22,7 @@ At most ``jobs`` runs are in flight, so a run's clock starts when a worker is fr
 
 from __future__ import annotations
 
+import enum
 import logging
 import multiprocessing
 import os
@@ -94,9 +95,16 @@ def hard_limit(time_limit: float, slack: float = 60.0) -> float:
     return 2 * time_limit + slack
 
 
-def failed_rows(work: Work, status: str, seconds: float) -> list[dict[str, Any]]:
+class RunFailure(enum.Enum):
+    """How a run that did not return ended (its rows' ``status``)."""
+
+    KILLED = "killed"  # past its hard limit: the worker was killed
+    CRASHED = "crashed"  # its worker died (out of memory, a crash in a native library)
+
+
+def failed_rows(work: Work, failure: RunFailure, seconds: float) -> list[dict[str, Any]]:
     """The rows of a run that did not return: their known fields, unsolved, with the time it took."""
-    return [{**known, "status": status, "solved": False, "time_s": round(seconds, 6)} for known in work.rows]
+    return [{**known, "status": failure.value, "solved": False, "time_s": round(seconds, 6)} for known in work.rows]
 
 
 def _pending(work: Work, results: ResultsFile) -> bool:
@@ -207,10 +215,10 @@ def _local_rows(future: Future[Any], item: Work, seconds: float, limit: float) -
         rows: dict[str, Any] | list[dict[str, Any]] = future.result()
     except TimeoutError:  # concurrent.futures.TimeoutError is TimeoutError since Python 3.11
         log.warning("run %s exceeded %.0f s; its worker was killed", item.key, limit)
-        return failed_rows(item, "killed", seconds)
+        return failed_rows(item, RunFailure.KILLED, seconds)
     except ProcessExpired as error:
         log.warning("run %s killed its worker process (exit code %s); recorded as crashed", item.key, error.exitcode)
-        return failed_rows(item, "crashed", seconds)
+        return failed_rows(item, RunFailure.CRASHED, seconds)
     return rows
 
 
@@ -252,7 +260,7 @@ def _run_ray(
                 item, started = running.pop(ref)
                 log.warning("run %s exceeded %.0f s; its Ray task was killed", item.key, limit)
                 ray.cancel(ref, force=True)
-                _store(results, failed_rows(item, "killed", now - started))
+                _store(results, failed_rows(item, RunFailure.KILLED, now - started))
                 bar.update(1)
     finally:
         for ref in running:

@@ -11,7 +11,7 @@ from typing import Any, Literal
 from hbtp.bench.plots import plot_table1
 from hbtp.bench.report import table1_section, write_report
 from hbtp.bench.results import ResultsFile, mean, median, write_json
-from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, hard_limit, run_work
+from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, RunFailure, Work, hard_limit, run_work
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
@@ -173,8 +173,8 @@ def summarise(rows: Sequence[dict[str, Any]], config: Table1Config) -> dict[str,
         planners[planner] = {
             "tasks": len(mine),
             "solved": len(solved),
-            "timeouts": sum(r["status"] in (Status.TIMEOUT.value, "killed") for r in mine),
-            "killed": sum(r["status"] == "killed" for r in mine),
+            "timeouts": sum(r["status"] in (Status.TIMEOUT.value, RunFailure.KILLED.value) for r in mine),
+            "killed": sum(r["status"] == RunFailure.KILLED.value for r in mine),
             "mean_explored": mean([r["explored"] for r in solved]),
             "mean_cost": mean([r["cost"] for r in solved]),
             "mean_time_s": mean([r["time_s"] for r in mine]),

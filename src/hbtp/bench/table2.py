@@ -19,7 +19,7 @@ from typing import Any, cast
 from hbtp.bench.plots import plot_table2
 from hbtp.bench.report import table2_section, write_report
 from hbtp.bench.results import ResultsFile, mean, write_json
-from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, run_work
+from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, RunFailure, Work, run_work
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
@@ -232,7 +232,7 @@ def run_table2(
                 "run": run,
                 "outcome": Outcome.FAILED.label,
                 "rounds": 0,
-                "errors": ["killed"],
+                "errors": [RunFailure.KILLED.value],
             },
             stage=f"run {run}" if config.runs > 1 else "",
         )
@@ -300,7 +300,7 @@ def summarise(rows: Sequence[dict[str, Any]], scenario: Scenario, dataset: str, 
         "explored": mean([r["explored"] for r in successful]),
         "mean_planning_s": mean([r["planning_s"] for r in rows if "planning_s" in r]),
         "mean_llm_s": mean([r["llm_s"] for r in rows if "llm_s" in r]),
-        "killed": sum(r.get("status") == "killed" for r in rows),
+        "killed": sum(r.get("status") == RunFailure.KILLED.value for r in rows),
         "NF_per_run": [summarise(mine, scenario, dataset, replace(config, runs=1))["NF"] for mine in per_run.values()]
         if len(per_run) > 1
         else None,
