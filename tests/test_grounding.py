@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import time
 from typing import Any
 
@@ -168,13 +169,22 @@ def test_cost_from_a_static_function() -> None:
     assert {a.name: a.cost for a in task.actions} == {"Drive(a)": 4, "Drive(b)": 7, "Drive(c)": 0}
 
 
-def test_cost_function_without_a_value_is_an_error() -> None:
+def test_action_whose_cost_is_undefined_is_dropped_with_a_warning(caplog: pytest.LogCaptureFixture) -> None:
+    # Fast Downward never instantiates such an action unless it is reachable (elevators' slow lifts).
     domain = STATIC % (
         "(:action Drive :parameters (?x) :precondition (red ?x)"
         " :effect (and (At ?x) (increase (total-cost) (dist ?x))))"
     )
-    with pytest.raises(GroundingError, match=r"'Drive'.*\(dist b\) is not defined"):
-        _ground(domain, _problem(OBJECTS, FACTS.replace("(= (dist b) 7)", "")), keep_fluent=FLUENTS)
+    full = _ground(domain, _problem(OBJECTS, FACTS), keep_fluent=FLUENTS)
+    task = _ground(domain, _problem(OBJECTS, FACTS.replace("(= (dist b) 7)", "")), keep_fluent=FLUENTS)
+    assert "Drive(b)" in _names_of_actions(full)
+    assert "Drive(b)" not in _names_of_actions(task)
+    assert len(task.actions) == len(full.actions) - 1
+    assert re.search(r"'Drive' \(line \d+\): 1 ground action\(s\) dropped.*\(dist b\)", caplog.text)
+
+
+def _names_of_actions(task: GroundTask) -> list[str]:
+    return [a.name for a in task.actions]
 
 
 # ======================================================= not STRIPS: an error

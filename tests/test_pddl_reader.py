@@ -279,10 +279,12 @@ def test_problem_error_names_the_construct_and_its_place(case: str) -> None:
     assert error.source == "p1.pddl"
 
 
-def test_object_that_repeats_a_constant_is_rejected() -> None:
+def test_object_that_repeats_a_constant_of_another_type_is_rejected() -> None:
     domain = read_domain(DOMAIN % "")
-    with pytest.raises(PddlError, match="'till' is already a domain constant"):
-        read_problem(PROBLEM.replace("shelf - place", "shelf till - place"), domain)
+    text, line, column = _marked(PROBLEM.replace("shelf - place", "shelf @till - item"))
+    with pytest.raises(PddlError, match="'till' is already a domain constant, of another type") as info:
+        read_problem(text, domain)
+    assert (info.value.line, info.value.column) == (line, column)
 
 
 # ==================================================== a predicate named Exists
@@ -331,18 +333,19 @@ def test_reads_types_constants_predicates_and_functions() -> None:
     assert domain.uses_action_costs
 
 
-def test_keywords_are_case_insensitive_and_names_keep_their_case() -> None:
+def test_keywords_and_names_are_case_insensitive_and_keep_the_declared_spelling() -> None:
     domain = read_domain(
-        "(DEFINE (DOMAIN Shop) (:REQUIREMENTS :STRIPS) (:PREDICATES (Near ?x) (near ?x))"
-        " (:ACTION Go :PARAMETERS (?x) :PRECONDITION (AND (near ?x)) :EFFECT (AND (Near ?x) (NOT (near ?x)))))"
+        "(DEFINE (DOMAIN Shop) (:REQUIREMENTS :STRIPS) (:PREDICATES (Near ?X) (far ?x))"
+        " (:ACTION Go :PARAMETERS (?x) :PRECONDITION (AND (NEAR ?x)) :EFFECT (AND (Far ?X) (NOT (near ?x)))))"
     )
     assert domain.name == "Shop"
     assert domain.requirements == (":strips",)
-    assert set(domain.predicates) == {"Near", "near"}
+    assert set(domain.predicates) == {"Near", "far"}
     (action,) = domain.actions
     assert action.name == "Go"
+    assert action.parameters == (TypedName("?x"),)
     assert action.effect == AndEffect(
-        (AddEffect(AtomFormula("Near", ("?x",))), DeleteEffect(AtomFormula("near", ("?x",))))
+        (AddEffect(AtomFormula("far", ("?x",))), DeleteEffect(AtomFormula("Near", ("?x",))))
     )
 
 

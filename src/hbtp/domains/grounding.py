@@ -50,7 +50,7 @@ from hbtp.domains.lifted import (
 )
 from hbtp.errors import GroundingError, InputError
 from hbtp.logic.atoms import Atom
-from hbtp.logic.task import GroundAction, GroundTask
+from hbtp.logic.task import GroundAction, GroundTask, listing
 
 log = logging.getLogger(__name__)
 
@@ -276,8 +276,29 @@ class _Grounder:
         self, schema: ActionSchema
     ) -> Iterator[tuple[Atom, frozenset[Atom], frozenset[Atom], frozenset[Atom], int]]:
         static_parts, fluent_parts = self._split_precondition(schema.precondition)
-        params = schema.parameters
         seen: set[tuple[str, ...]] = set()
+        dropped: list[str] = []
+        yield from self._ground_bindings(schema, static_parts, fluent_parts, seen, dropped)
+        if dropped:
+            # Fast Downward's translator only instantiates reachable actions, and fails on one whose cost
+            # is undefined; hbtp grounds from static facts alone, so it drops them (elevators' slow lifts).
+            log.warning(
+                "action %r (line %d): %d ground action(s) dropped, their cost is not defined in :init (%s)",
+                schema.name,
+                schema.line,
+                len(dropped),
+                listing(dropped, 3),
+            )
+
+    def _ground_bindings(
+        self,
+        schema: ActionSchema,
+        static_parts: list[Formula],
+        fluent_parts: list[Formula],
+        seen: set[tuple[str, ...]],
+        dropped: list[str],
+    ) -> Iterator[tuple[Atom, frozenset[Atom], frozenset[Atom], frozenset[Atom], int]]:
+        params = schema.parameters
         for binding in self._bindings(static_parts, params, {}, schema):
             self.tick()
             key = tuple(binding[p.name] for p in params)
@@ -298,7 +319,11 @@ class _Grounder:
             add: set[Atom] = set()
             delete: set[Atom] = set()
             costs: list[int] = []
-            self._apply_effect(schema.effect, binding, schema, add, delete, costs)
+            try:
+                self._apply_effect(schema.effect, binding, schema, add, delete, costs)
+            except _UndefinedCost as undefined:
+                dropped.append(undefined.args[0])
+                continue
             cost = sum(costs) if self.domain.uses_action_costs else 1
             if cost > MAX_ACTION_COST:
                 raise GroundingError(
@@ -454,9 +479,7 @@ class _Grounder:
             else:
                 key = (amount.predicate, tuple(_subst(t, binding) for t in amount.terms))
                 if key not in self.problem.numeric_init:
-                    raise GroundingError(
-                        f"action {schema.name!r}: cost ({' '.join((key[0], *key[1]))}) is not defined in :init"
-                    )
+                    raise _UndefinedCost(f"({' '.join((key[0], *key[1]))})")
                 value = self.problem.numeric_init[key]
                 if value < 0:
                     raise GroundingError(
@@ -467,6 +490,10 @@ class _Grounder:
 
 
 # ======================================================================= helpers
+class _UndefinedCost(Exception):
+    """A ground action's cost names a function value that :init does not define."""
+
+
 def _effect_predicates(actions: Iterable[ActionSchema]) -> set[str]:
     found: set[str] = set()
 

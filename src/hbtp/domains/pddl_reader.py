@@ -1,11 +1,15 @@
 """Read PDDL domains and problems (the subset described in :mod:`hbtp.domains.lifted`).
 
-Keywords are case-insensitive; names keep their case (``ADMilk`` and ``admilk`` are different
-objects). Anything outside the subset is rejected with the construct and its line.
+Like Fast Downward, every name is case-insensitive (``ADMilk`` and ``admilk`` are one object); the
+first spelling declared is the one kept for display. The quirks Fast Downward's translator tolerates
+are read with a warning (logged with file:line:column): a name or parameter declared twice, a type
+declared twice with ``object`` as one of its parents, ``name?var`` without a space. Anything outside
+the subset is rejected with the construct and its line and column.
 """
 
 from __future__ import annotations
 
+import logging
 import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -37,6 +41,7 @@ from hbtp.domains.lifted import (
 )
 from hbtp.domains.sexpr import Expr, SList, Symbol, parse_sexprs
 from hbtp.errors import PddlError
+from hbtp.logic.task import did_you_mean
 
 SUPPORTED_REQUIREMENTS = frozenset(
     {
@@ -62,6 +67,9 @@ UNSUPPORTED_SECTIONS = {
 }
 
 
+log = logging.getLogger(__name__)
+
+
 class _Reader:
     """Shared state while reading one file: its name, and where each type name is first written, for messages."""
 
@@ -70,6 +78,10 @@ class _Reader:
         self.deadline = deadline
         self.type_uses: dict[str, Symbol] = {}
         self.declared_types: set[str] | None = None  # known once the domain's types are read
+        self.type_names: dict[str, str] = {OBJECT_TYPE: OBJECT_TYPE}  # lower case -> first spelling
+
+    def warn(self, message: str, where: Expr) -> None:
+        log.warning("%s:%d:%d: %s", self.source, where.line, where.column, message)
 
     def fail(self, message: str, where: Expr | None) -> PddlError:
         if where is None:
@@ -101,9 +113,27 @@ class _Reader:
         name = self.expect_symbol(header.items[1], f"{kind} name").text
         return name, list(top.items[2:]), top
 
-    def typed_list(self, items: tuple[Expr, ...], variables: bool) -> list[TypedName]:
-        """Read ``a b - t c - (either u v) d``."""
+    def typed_list(self, items: tuple[Expr, ...], variables: bool, keep_twice: bool = False) -> list[TypedName]:
+        """Read ``a b - t c - (either u v) d``.
+
+        A name declared twice (case-insensitively) is read once with a warning when both have the same
+        type, and refused otherwise; with ``keep_twice`` (a predicate's parameters, which only count)
+        both are kept."""
         result: list[TypedName] = []
+        seen: dict[str, TypedName] = {}
+        for symbol, typed in self.typed_symbols(items, variables):
+            first = seen.setdefault(typed.name.lower(), typed)
+            if first is typed or keep_twice:
+                result.append(typed)
+            elif first.types != typed.types:
+                raise self.fail(f"{first.name!r} is declared twice, with different types", symbol)
+            if first is not typed:
+                self.warn(f"{first.name!r} is declared twice", symbol)
+        return result
+
+    def typed_symbols(self, items: tuple[Expr, ...], variables: bool) -> list[tuple[Symbol, TypedName]]:
+        """Every name of a typed list with its type(s) and where it is written, duplicates included."""
+        result: list[tuple[Symbol, TypedName]] = []
         pending: list[Symbol] = []
         index = 0
         while index < len(items):
@@ -112,7 +142,7 @@ class _Reader:
                 if not pending or index + 1 >= len(items):
                     raise self.fail("'-' must stand between names and a type", item)
                 types = self.type_spec(items[index + 1])
-                result.extend(TypedName(s.text, types) for s in pending)
+                result.extend((s, TypedName(s.text, types)) for s in pending)
                 pending = []
                 index += 2
                 continue
@@ -122,12 +152,7 @@ class _Reader:
                 raise self.fail(f"expected {kind}, found {symbol.text!r}", symbol)
             pending.append(symbol)
             index += 1
-        result.extend(TypedName(s.text) for s in pending)
-        names: set[str] = set()
-        for typed in result:
-            if typed.name in names:
-                raise self.fail(f"{typed.name!r} is declared twice", items[0])
-            names.add(typed.name)
+        result.extend((s, TypedName(s.text)) for s in pending)
         return result
 
     def type_spec(self, expr: Expr) -> tuple[str, ...]:
@@ -137,9 +162,10 @@ class _Reader:
             raise self.fail("expected a type or (either t1 t2 ...)", expr)
         else:
             symbols = [self.expect_symbol(e, "a type") for e in expr.items[1:]]
-        for symbol in symbols:
-            self.type_uses.setdefault(symbol.text, symbol)
-        return tuple(symbol.text for symbol in symbols)
+        names = tuple(self.type_names.setdefault(symbol.lower, symbol.text) for symbol in symbols)
+        for name, symbol in zip(names, symbols, strict=True):
+            self.type_uses.setdefault(name, symbol)
+        return names
 
     def number(self, symbol: Symbol, what: str = "") -> int:
         """A whole number written in ASCII digits, at most :data:`MAX_ACTION_COST` in size."""
@@ -201,15 +227,14 @@ class _Reader:
     def atom(self, node: SList, context: _Scope) -> AtomFormula:
         if not node.items:
             raise self.fail("empty condition ()", node)
-        name = self.expect_symbol(node.items[0], "a predicate").text
+        name = context.predicate(self.expect_symbol(node.items[0], "a predicate"), node, self)
         terms = tuple(self.term(t, context) for t in node.items[1:])
         context.check_atom(name, terms, node, self)
         return AtomFormula(name, terms, node.line)
 
     def term(self, expr: Expr, context: _Scope) -> str:
         symbol = self.expect_symbol(expr, "a variable or object")
-        context.check_term(symbol, self)
-        return symbol.text
+        return context.term(symbol, self)
 
     # ------------------------------------------------------------- effects
     def effect(self, expr: Expr, context: _Scope) -> Effect:
@@ -258,46 +283,66 @@ class _Reader:
             if value < 0:
                 raise self.fail("action costs must not be negative", amount)
             return CostEffect(value, node.line)
-        name = self.expect_symbol(amount.items[0], "a function") if amount.items else None
-        if name is None or name.text not in context.functions:
+        symbol = self.expect_symbol(amount.items[0], "a function") if amount.items else None
+        name = context.function_names.get(symbol.lower) if symbol is not None else None
+        if name is None:
             raise self.fail("cost must be a number or a declared static function", amount)
         terms = tuple(self.term(t, context) for t in amount.items[1:])
-        if len(terms) != len(context.functions[name.text]):
-            raise self.fail(f"function {name.text!r} takes {len(context.functions[name.text])} argument(s)", amount)
-        return CostEffect(AtomFormula(name.text, terms, amount.line), node.line)
+        if len(terms) != len(context.functions[name]):
+            raise self.fail(f"function {name!r} takes {len(context.functions[name])} argument(s)", amount)
+        return CostEffect(AtomFormula(name, terms, amount.line), node.line)
 
 
 class _Scope:
-    """Names visible in a formula: predicates, constants/objects, bound variables."""
+    """Names visible in a formula: predicates, constants/objects, bound variables.
+
+    ``names`` and ``variables`` map the lower-case spelling to the declared one."""
 
     def __init__(
         self,
         predicates: dict[str, tuple[TypedName, ...]],
         functions: dict[str, tuple[TypedName, ...]],
-        names: set[str],
-        variables: set[str],
+        names: dict[str, str],
+        variables: dict[str, str],
     ) -> None:
         self.predicates = predicates
         self.functions = functions
         self.names = names
         self.variables = variables
+        self.predicate_names = {p.lower(): p for p in predicates}
+        self.function_names = {f.lower(): f for f in functions}
 
     def extended(self, variables: list[TypedName]) -> _Scope:
-        return _Scope(self.predicates, self.functions, self.names, self.variables | {v.name for v in variables})
+        inner = _Scope.__new__(_Scope)
+        inner.__dict__.update(self.__dict__)
+        inner.variables = {**self.variables, **{v.name.lower(): v.name for v in variables}}
+        return inner
+
+    def predicate(self, symbol: Symbol, node: SList, reader: _Reader) -> str:
+        """The declared spelling of the predicate ``symbol`` names."""
+        name = self.predicate_names.get(symbol.lower)
+        if name is None:
+            hint = did_you_mean(symbol.text, self.predicates)
+            raise reader.fail(f"unknown predicate {symbol.text!r}{hint}", node)
+        return name
 
     def check_atom(self, name: str, terms: tuple[str, ...], node: SList, reader: _Reader) -> None:
-        if name not in self.predicates:
-            raise reader.fail(f"unknown predicate {name!r}", node)
         arity = len(self.predicates[name])
         if len(terms) != arity:
             raise reader.fail(f"predicate {name!r} takes {arity} argument(s), found {len(terms)}", node)
 
-    def check_term(self, symbol: Symbol, reader: _Reader) -> None:
+    def term(self, symbol: Symbol, reader: _Reader) -> str:
+        """The declared spelling of the variable or object ``symbol`` names."""
         if is_variable(symbol.text):
-            if symbol.text not in self.variables:
+            variable = self.variables.get(symbol.lower)
+            if variable is None:
                 raise reader.fail(f"unbound variable {symbol.text!r}", symbol)
-        elif symbol.text not in self.names:
-            raise reader.fail(f"unknown object or constant {symbol.text!r}", symbol)
+            return variable
+        name = self.names.get(symbol.lower)
+        if name is None:
+            hint = did_you_mean(symbol.text, self.names.values())
+            raise reader.fail(f"unknown object or constant {symbol.text!r}{hint}", symbol)
+        return name
 
 
 # ====================================================================== domain
@@ -323,16 +368,16 @@ def read_domain(text: str, source: str = "<domain>", deadline: Deadline | None =
     reader.declared_types = declared_types
     _check_type_cycles(reader, types)
 
-    scope = _Scope(predicates, parts.functions, {c.name for c in constants}, set())
+    scope = _Scope(predicates, parts.functions, {c.name.lower(): c.name for c in constants}, {})
     actions: list[ActionSchema] = []
     action_names: set[str] = set()
     for position, node in enumerate(parts.action_nodes):
         if deadline is not None and position & 255 == 255:
             deadline.check("reading the PDDL files")
         action = _read_action(reader, node, scope, declared_types)
-        if action.name in action_names:
+        if action.name.lower() in action_names:
             raise reader.fail(f"action {action.name!r} is declared twice", node)
-        action_names.add(action.name)
+        action_names.add(action.name.lower())
         actions.append(action)
     return Domain(name, tuple(parts.requirements), types, tuple(constants), predicates, parts.functions, tuple(actions))
 
@@ -346,6 +391,7 @@ class _DomainSections:
     constants: list[TypedName] = field(default_factory=list)
     predicates: dict[str, tuple[TypedName, ...]] = field(default_factory=dict)
     functions: dict[str, tuple[TypedName, ...]] = field(default_factory=dict)
+    predicate_keys: set[str] = field(default_factory=set)  # the predicates' names in lower case
     action_nodes: list[SList] = field(default_factory=list)
 
     def read(self, reader: _Reader, head: str, node: SList) -> None:
@@ -356,10 +402,13 @@ class _DomainSections:
                     raise reader.fail(f"requirement {req} is not supported", item)
                 self.requirements.append(req)
         elif head == ":types":
-            for typed in reader.typed_list(node.items[1:], variables=False):
+            for item in node.items[1:]:  # the first spelling written is the one kept
+                if isinstance(item, Symbol) and item.text != "-":
+                    reader.type_names.setdefault(item.lower, item.text)
+            for symbol, typed in reader.typed_symbols(node.items[1:], variables=False):
                 if len(typed.types) != 1:
-                    raise reader.fail(f"type {typed.name!r} cannot have an (either ...) parent", node)
-                self.types[typed.name] = typed.types[0]
+                    raise reader.fail(f"type {typed.name!r} cannot have an (either ...) parent", symbol)
+                self.add_type(reader, symbol, typed.types[0])
         elif head == ":constants":
             self.constants = reader.typed_list(node.items[1:], variables=False)
         elif head == ":predicates":
@@ -371,15 +420,30 @@ class _DomainSections:
         else:
             raise reader.fail(f"unknown domain section {head or '(list)'}", node)
 
+    def add_type(self, reader: _Reader, symbol: Symbol, parent: str) -> None:
+        """Declare a type; declared again, its parent ``object`` gives way to the other (with a warning)."""
+        name = reader.type_names.setdefault(symbol.lower, symbol.text)
+        reader.type_uses.setdefault(name, symbol)
+        first = self.types.get(name)
+        if first is None:
+            self.types[name] = parent
+            return
+        if first != parent and OBJECT_TYPE not in (first, parent):
+            raise reader.fail(f"type {name!r} is declared twice, with parents {first!r} and {parent!r}", symbol)
+        reader.warn(f"type {name!r} is declared twice", symbol)
+        if first == OBJECT_TYPE:
+            self.types[name] = parent
+
     def read_predicates(self, reader: _Reader, node: SList) -> None:
         for item in node.items[1:]:
             decl = reader.expect_list(item, "(predicate ?args)")
             pname = reader.expect_symbol(decl.items[0], "a predicate name").text if decl.items else ""
             if not pname:
                 raise reader.fail("empty predicate declaration", decl)
-            if pname in self.predicates:
+            if pname.lower() in self.predicate_keys:
                 raise reader.fail(f"predicate {pname!r} is declared twice", decl)
-            self.predicates[pname] = tuple(reader.typed_list(decl.items[1:], variables=True))
+            self.predicate_keys.add(pname.lower())
+            self.predicates[pname] = tuple(reader.typed_list(decl.items[1:], variables=True, keep_twice=True))
 
 
 def _read_functions(reader: _Reader, node: SList) -> dict[str, tuple[TypedName, ...]]:
@@ -398,7 +462,7 @@ def _read_functions(reader: _Reader, node: SList) -> dict[str, tuple[TypedName, 
         fname = reader.expect_symbol(decl.items[0], "a function name").text if decl.items else ""
         if not fname:
             raise reader.fail("empty function declaration", decl)
-        functions[fname] = tuple(reader.typed_list(decl.items[1:], variables=True))
+        functions[fname] = tuple(reader.typed_list(decl.items[1:], variables=True, keep_twice=True))
         index += 1
     return functions
 
@@ -450,9 +514,11 @@ def _read_action(reader: _Reader, node: SList, scope: _Scope, declared_types: se
 def read_problem(text: str, domain: Domain, source: str = "<problem>", deadline: Deadline | None = None) -> Problem:
     """Parse a PDDL problem of ``domain`` (past ``deadline``, :class:`~hbtp.deadline.TimeLimitReached`)."""
     reader = _Reader(source, deadline)
+    for type_name in (*domain.types, *domain.types.values()):
+        reader.type_names.setdefault(type_name.lower(), type_name)
     name, sections, _ = reader.define(text, "problem")
     domain_name = ""
-    objects: list[TypedName] = []
+    object_nodes: tuple[Expr, ...] = ()
     init_nodes: list[Expr] = []
     goal_node: Expr | None = None
     minimize = False
@@ -464,7 +530,7 @@ def read_problem(text: str, domain: Domain, source: str = "<problem>", deadline:
             if domain_name.lower() != domain.name.lower():
                 raise reader.fail(f"problem is for domain {domain_name!r}, not {domain.name!r}", node)
         elif head == ":objects":
-            objects = reader.typed_list(node.items[1:], variables=False)
+            object_nodes = node.items[1:]
         elif head == ":init":
             init_nodes = list(node.items[1:])
         elif head == ":goal":
@@ -478,13 +544,7 @@ def read_problem(text: str, domain: Domain, source: str = "<problem>", deadline:
         else:
             raise reader.fail(f"unknown problem section {head or '(list)'}", node)
 
-    declared_types = {OBJECT_TYPE, *domain.types, *domain.types.values()}
-    constants = {c.name for c in domain.constants}
-    reader.check_types(objects, "", declared_types)
-    for obj in objects:
-        if obj.name in constants:
-            raise reader.fail(f"object {obj.name!r} is already a domain constant", None)
-    scope = _Scope(domain.predicates, domain.functions, constants | {o.name for o in objects}, set())
+    objects, scope = _problem_scope(reader, domain, object_nodes)
     init: list[AtomFormula] = []
     numeric: dict[tuple[str, tuple[str, ...]], int] = {}
     for item in init_nodes:
@@ -505,6 +565,25 @@ def read_problem(text: str, domain: Domain, source: str = "<problem>", deadline:
     return Problem(name, domain_name or domain.name, tuple(objects), tuple(init), numeric, goal, minimize)
 
 
+def _problem_scope(reader: _Reader, domain: Domain, object_nodes: tuple[Expr, ...]) -> tuple[list[TypedName], _Scope]:
+    """The problem's objects, and the names its facts may use (an object declared twice, or also a
+    domain constant, is read once with a warning when both have the same type)."""
+    seen = {c.name.lower(): c for c in domain.constants}
+    objects: list[TypedName] = []
+    for symbol, obj in reader.typed_symbols(object_nodes, variables=False):
+        first = seen.setdefault(obj.name.lower(), obj)
+        if first is obj:
+            objects.append(obj)
+            continue
+        what = "a domain constant" if first in domain.constants else "an object"
+        if first.types != obj.types:
+            raise reader.fail(f"{obj.name!r} is already {what}, of another type", symbol)
+        reader.warn(f"{obj.name!r} is declared twice (already {what})", symbol)
+    reader.check_types(objects, "", {OBJECT_TYPE, *domain.types, *domain.types.values()})
+    names = {key: typed.name for key, typed in seen.items()}
+    return objects, _Scope(domain.predicates, domain.functions, names, {})
+
+
 def _read_metric(reader: _Reader, node: SList) -> bool:
     items = node.items[1:]
     if (
@@ -522,9 +601,10 @@ def _read_numeric_fact(reader: _Reader, fact: SList, scope: _Scope) -> tuple[tup
     if len(fact.items) != 3:
         raise reader.fail("expected (= (function args) NUMBER)", fact)
     target = reader.expect_list(fact.items[1], "(function args)")
-    fname = reader.expect_symbol(target.items[0], "a function").text if target.items else ""
-    if fname not in scope.functions:
-        raise reader.fail(f"unknown function {fname!r}", target)
+    written = reader.expect_symbol(target.items[0], "a function").text if target.items else ""
+    fname = scope.function_names.get(written.lower(), "")
+    if not fname:
+        raise reader.fail(f"unknown function {written!r}{did_you_mean(written, scope.functions)}", target)
     args = tuple(reader.term(t, scope) for t in target.items[1:])
     value = reader.number(reader.expect_symbol(fact.items[2], "a number"))
     return (fname, args), value

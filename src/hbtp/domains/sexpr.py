@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import re
 from dataclasses import dataclass
 
@@ -47,6 +48,21 @@ MAX_NESTING = 100
 _TOKEN = re.compile(r"[()]|[^\s();]+")
 _BOM = "\ufeff"
 
+log = logging.getLogger(__name__)
+
+
+def _split_variables(token: str, line: int, column: int, source: str) -> list[Symbol]:
+    """``name?var`` run together, as Fast Downward's tokenizer reads it: ``name ?var`` (with a warning)."""
+    parts = [part for part in token.replace("?", " ?").split(" ") if part]
+    log.warning("%s:%d:%d: %r read as %r (a missing space)", source, line, column, token, " ".join(parts))
+    symbols: list[Symbol] = []
+    offset = 0
+    for part in parts:
+        offset = token.index(part, offset)
+        symbols.append(Symbol(part, line, column + offset))
+        offset += len(part)
+    return symbols
+
 
 def parse_sexprs(text: str, source: str = "<string>", deadline: Deadline | None = None) -> list[Expr]:
     """Read every top-level expression of ``text`` (a leading UTF-8 byte-order mark is skipped).
@@ -77,6 +93,8 @@ def parse_sexprs(text: str, source: str = "<string>", deadline: Deadline | None 
                 outer, open_line, open_column = stack.pop()
                 outer.append(SList(tuple(current), open_line, open_column))
                 current = outer
+            elif "?" in token[1:]:
+                current.extend(_split_variables(token, line_number, column, source))
             else:
                 current.append(Symbol(token, line_number, column))
     if stack:

@@ -10,6 +10,7 @@ States and conditions are ``frozenset[int]`` of atom ids; :class:`Atom` names ar
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Callable, Hashable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -164,10 +165,31 @@ class GroundTask:
     def atom(self, atom_id: int) -> Atom:
         return self.atoms[atom_id]
 
+    # ------------------------------------------------- case-insensitive names
+    @cached_property
+    def _spellings(self) -> tuple[dict[str, str], dict[str, str], dict[str, str]]:
+        """Lower case -> declared spelling, for predicates, objects and action predicates."""
+        predicates = {p.lower(): p for p in (*self.static_arities, *self.predicates)}
+        objects = {o.lower(): o for o in sorted(self.symbols)}
+        actions = {q.lower(): q for q in self.action_predicates}
+        return predicates, objects, actions
+
+    def spelled(self, atom: Atom, action: bool = False) -> Atom:
+        """``atom`` with its names in their declared spelling: as in PDDL, names are case-insensitive
+        (``on(a,b)`` is ``ON(A,B)`` in a domain that declares ``ON``); unknown names stay as written."""
+        predicates, objects, actions = self._spellings
+        table = actions if action else predicates
+        predicate = table.get(atom.predicate.lower(), atom.predicate)
+        args = tuple(objects.get(arg.lower(), arg) for arg in atom.args)
+        if predicate == atom.predicate and args == atom.args:
+            return atom
+        return Atom(predicate, args)
+
     def atom_id(self, atom: Atom | str) -> int:
         """The id of a literal known to the task; raises :class:`UnknownSymbolError` otherwise."""
         if isinstance(atom, str):
             atom = parse_atom(atom)
+        atom = self.spelled(atom)
         try:
             return self.atom_ids[atom]
         except KeyError:
@@ -176,7 +198,7 @@ class GroundTask:
 
     def action(self, name: Atom | str) -> GroundAction:
         """The grounded action named ``Walk(apple)`` or ``Walk_apple``."""
-        signature = parse_atom(name) if isinstance(name, str) else name
+        signature = self.spelled(parse_atom(name) if isinstance(name, str) else name, action=True)
         try:
             return self.actions[self.action_ids[signature]]
         except KeyError:
@@ -188,13 +210,16 @@ class GroundTask:
 
     # ------------------------------------------------------------- validation
     def check_literal(self, atom: Atom) -> None:
-        """Raise :class:`UnknownSymbolError` unless ``atom`` is well formed for this domain."""
+        """Raise :class:`UnknownSymbolError` unless ``atom`` is well formed for this domain (names are
+        case-insensitive; see :meth:`spelled`)."""
+        atom = self.spelled(atom)
         arity = self.predicates.get(atom.predicate)
         if arity is None:
             static_arity = self.static_arities.get(atom.predicate)
             if static_arity is None:
+                hint = did_you_mean(atom.predicate, [*self.predicates, *self.static_arities])
                 raise UnknownSymbolError(
-                    f"unknown predicate {atom.predicate!r} in {atom} (task {self.name!r} has: "
+                    f"unknown predicate {atom.predicate!r} in {atom}{hint} (task {self.name!r} has: "
                     f"{', '.join(sorted(self.predicates))})"
                 )
             arity = static_arity
@@ -202,14 +227,15 @@ class GroundTask:
             raise UnknownSymbolError(f"{atom}: predicate {atom.predicate!r} takes {arity} argument(s)")
         unknown = [arg for arg in atom.args if arg not in self.symbols]
         if unknown:
-            raise UnknownSymbolError(f"unknown object {unknown[0]!r} in {atom}")
+            hint = did_you_mean(unknown[0], self.symbols)
+            raise UnknownSymbolError(f"unknown object {unknown[0]!r} in {atom}{hint}")
 
     def resolve_goal(self, goal: str | Iterable[Atom | str]) -> Goal:
         """Resolve a goal text (``IsIn_milk_fridge & IsClose(fridge)``) or atoms against this task."""
         if isinstance(goal, str):
-            atoms = parse_conjunction(goal)
+            atoms = tuple(self.spelled(a) for a in parse_conjunction(goal))
         else:
-            atoms = tuple(parse_atom(a) if isinstance(a, str) else a for a in goal)
+            atoms = tuple(self.spelled(parse_atom(a) if isinstance(a, str) else a) for a in goal)
             if not atoms:
                 raise InputError("empty goal")
         ids: set[int] = set()
@@ -246,6 +272,17 @@ class GroundTask:
     def restricted(self, action_ids: Iterable[int]) -> tuple[GroundAction, ...]:
         """The actions with the given indices, in task order (an action space for the planner)."""
         return tuple(self.actions[i] for i in sorted(set(action_ids)))
+
+
+def did_you_mean(name: str, known: Iterable[str]) -> str:
+    """`` (did you mean 'a' or 'b'?)`` with the closest of ``known`` names (case-insensitively), or ''."""
+    spelling: dict[str, str] = {}
+    for k in sorted(known):
+        spelling.setdefault(k.lower(), k)
+    close = difflib.get_close_matches(name.lower(), spelling, n=3)
+    if not close:
+        return ""
+    return " (did you mean " + " or ".join(repr(spelling[c]) for c in close) + "?)"
 
 
 def listing(names: Iterable[str], most: int = 10) -> str:
