@@ -36,16 +36,16 @@ from hbtp.errors import InputError
 from hbtp.files import write_all_atomically
 from hbtp.llm.backend import Backend
 from hbtp.llm.backends.local import LocalBackend
-from hbtp.llm.backends.registry import BackendOptions, make_backend
+from hbtp.llm.backends.registry import BackendOptions, auto_backend, make_backend
 from hbtp.llm.pool import example_pool
 from hbtp.llm.prompt import PromptOptions
 from hbtp.logic.task import Goal
-from hbtp.pipeline import LoopOptions, LoopResult, run_hbtp
+from hbtp.pipeline import DEFAULT_PROBE_SECONDS, AutoResult, LoopOptions, LoopResult, plan_auto, run_hbtp
 from hbtp.pipeline.loop import Progress
 from hbtp.planning import PLANNER_DESCRIPTIONS, PLANNERS, Limits, plan
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
 from hbtp.planning.planners import check_alpha
-from hbtp.planning.result import PlanResult
+from hbtp.planning.result import PlanResult, Status
 
 log = logging.getLogger(__name__)
 
@@ -160,6 +160,7 @@ class LlmRequest:
     no_fallback: bool
     seed: int
     record: str | None
+    auto_probe: float
 
     def loop_options(self, search: SearchRequest, progress: Progress | None = None) -> LoopOptions:
         return LoopOptions(
@@ -179,7 +180,12 @@ class LlmRequest:
 llm_options = option_group(
     "llm",
     LlmRequest,
-    click.option("--llm", "llm_spec", help="Ask an LLM for hints: local, openai, oracle, noisy-oracle or replay:FILE."),
+    click.option(
+        "--llm",
+        "llm_spec",
+        help="Ask an LLM for hints: local, openai, oracle, noisy-oracle or replay:FILE; auto:BACKEND (auto: "
+        "auto:local) plans LLM-free first and asks BACKEND only when that finds no verdict in --auto-probe seconds.",
+    ),
     backend_options,
     feedback_rounds_option(
         "With --llm: rounds that ask again, with the failed search as feedback, before the fallback."
@@ -200,6 +206,13 @@ llm_options = option_group(
         "--seed", type=int, default=0, show_default=True, help="Seed of the LLM backend (sampling, noisy-oracle)."
     ),
     click.option("--record", type=click.Path(dir_okay=False), help="Record every LLM exchange to this JSONL file."),
+    click.option(
+        "--auto-probe",
+        type=click.FloatRange(min=0, min_open=True, max=1e9),
+        default=DEFAULT_PROBE_SECONDS,
+        show_default=True,
+        help="With --llm auto:BACKEND: seconds of LLM-free planning before the LLM is asked (about one model call).",
+    ),
 )
 
 
@@ -234,8 +247,12 @@ def run_plan(request: PlanRequest) -> int:
     goal = loaded.task.resolve_goal(read_goal(request.goal))
     check_alpha(search.alpha)
     report = _Report(loaded, goal, request)
-    if request.llm.llm_spec is not None:
-        loop = _run_llm(request.llm.llm_spec, request, loaded, goal)
+    spec = request.llm.llm_spec
+    if spec is not None and auto_backend(spec) is not None:
+        auto = _run_auto(spec, request, loaded, goal, limits)
+        return report.finish(auto.result, "llm" if auto.asked_llm else "none", auto.loop, auto)
+    if spec is not None:
+        loop = _run_llm(spec, request, loaded, goal)
         return report.finish(loop.result, "llm", loop)
     hints = load_hints(search.hints_source, loaded, goal, limits)
     space = search.space or ("pruned" if hints is not None else "full")
@@ -258,19 +275,55 @@ def run_plan(request: PlanRequest) -> int:
 def _run_llm(spec: str, request: PlanRequest, loaded: Scenario, goal: Goal) -> LoopResult:
     """The HBTP loop with the LLM ``spec``: ask, plan in the pruned space, feed back, fall back."""
     options = request.llm
-    if request.search.hints_source != "none":
-        raise InputError("use either --llm or --hints, not both")
-    if not options.round_time_limit > 0:
-        raise InputError(f"--round-time-limit must be positive, not {options.round_time_limit}")
+    _check_llm(request)
     progress = _progress(request.outputs.as_json)
-    llm = make_backend(spec, loaded, replace(options.backend, seed=options.seed, record=options.record))
+    llm = _backend(spec, request, loaded, progress)
     try:
-        if progress is not None:
-            _load(llm, progress)
         pool = example_pool(loaded, options.examples_from)
         return run_hbtp(loaded, goal, llm, pool, options.loop_options(request.search, progress))
     finally:
         llm.close()
+
+
+def _run_auto(spec: str, request: PlanRequest, loaded: Scenario, goal: Goal, limits: Limits) -> AutoResult:
+    """``--llm auto:BACKEND``: LLM-free for ``--auto-probe`` seconds, then (only then) the HBTP loop
+    with BACKEND, all within what is left of ``-t``."""
+    options = request.llm
+    _check_llm(request)
+    inner = auto_backend(spec)
+    assert inner is not None
+    progress = _progress(request.outputs.as_json)
+    loop_options = options.loop_options(request.search, progress)
+    if limits.deadline is not None:  # -t counts from the start of the command (loading included)
+        loop_options = replace(loop_options, time_limit=max(limits.deadline.remaining(), 0.0))
+    return plan_auto(
+        loaded,
+        goal,
+        lambda: _backend(inner, request, loaded, progress),
+        lambda: example_pool(loaded, options.examples_from),
+        loop_options,
+        options.auto_probe,
+    )
+
+
+def _check_llm(request: PlanRequest) -> None:
+    if request.search.hints_source != "none":
+        raise InputError("use either --llm or --hints, not both")
+    if not request.llm.round_time_limit > 0:
+        raise InputError(f"--round-time-limit must be positive, not {request.llm.round_time_limit}")
+
+
+def _backend(spec: str, request: PlanRequest, loaded: Scenario, progress: Progress | None) -> Backend:
+    """The backend ``spec`` with the command's options; a local model loaded now when progress is shown."""
+    options = request.llm
+    llm = make_backend(spec, loaded, replace(options.backend, seed=options.seed, record=options.record))
+    if progress is not None:
+        try:
+            _load(llm, progress)
+        except BaseException:
+            llm.close()
+            raise
+    return llm
 
 
 def _progress(as_json: bool) -> Progress | None:
@@ -301,14 +354,18 @@ class _Report:
     goal: Goal
     request: PlanRequest
 
-    def finish(self, result: PlanResult, hints_label: str, loop: LoopResult | None) -> int:
+    def finish(
+        self, result: PlanResult, hints_label: str, loop: LoopResult | None, auto: AutoResult | None = None
+    ) -> int:
         """Write the files, print the result, and return the exit code."""
         outputs = self.request.outputs
         tree = self._tree(result)
         self._write(result, tree)
         if outputs.as_json:
-            self._print_json(result, tree, hints_label, loop)
+            self._print_json(result, tree, hints_label, loop, auto)
         else:
+            if auto is not None:
+                click.echo(_auto_summary(auto))
             self._print_text(result, tree, loop)
         return int(plan_exit_code(result.status))
 
@@ -353,7 +410,9 @@ class _Report:
             )
         return files
 
-    def _print_json(self, result: PlanResult, tree: Node | None, hints_label: str, loop: LoopResult | None) -> None:
+    def _print_json(
+        self, result: PlanResult, tree: Node | None, hints_label: str, loop: LoopResult | None, auto: AutoResult | None
+    ) -> None:
         record = result.to_dict(self.loaded.task)
         record["scenario"] = self.loaded.name
         record["hints"] = hints_label
@@ -362,6 +421,8 @@ class _Report:
             record["tree"] = {"kind": self.request.outputs.tree_kind, "nodes": shape.nodes, "depth": shape.depth}
         if loop is not None:
             record["llm"] = loop.to_dict()
+        if auto is not None:
+            record["auto"] = auto.to_dict()
         echo_json(record)
 
     def _print_text(self, result: PlanResult, tree: Node | None, loop: LoopResult | None) -> None:
@@ -378,6 +439,17 @@ class _Report:
             click.echo("executes: " + (" -> ".join(task.actions[i].name for i in result.executed) or "(nothing)"))
         if tree is not None:
             click.echo(render_text(tree, task, max_children=self.request.outputs.max_branches))
+
+
+def _auto_summary(auto: AutoResult) -> str:
+    """Which path of ``--llm auto`` produced the result."""
+    status, budget = auto.probe.status.value, auto.probe_budget_s
+    probe = f"auto: LLM-free probe {status} in {auto.probe_s * 1000:.1f} ms (budget {budget:g} s)"
+    if auto.asked_llm:
+        return probe + "; asked the LLM"
+    if auto.probe.status in (Status.SOLVED, Status.UNSOLVABLE):
+        return probe + "; the LLM was not asked"
+    return probe + "; no time left to ask the LLM"
 
 
 def _loop_summary(loop: LoopResult) -> str:

@@ -1,4 +1,6 @@
-"""Backends by name: ``local`` (default), ``openai``, ``oracle``, ``noisy-oracle``, ``replay:FILE``."""
+"""Backends by name: ``local`` (default), ``openai``, ``oracle``, ``noisy-oracle``, ``replay:FILE``;
+``auto:BACKEND`` (``auto`` alone: ``auto:local``) asks BACKEND only when planning LLM-free is slow
+(:func:`hbtp.pipeline.auto.plan_auto`)."""
 
 from __future__ import annotations
 
@@ -12,6 +14,21 @@ from hbtp.llm.backends.oracle import NoisyOracleBackend, OracleBackend
 from hbtp.llm.backends.replay import RecordingBackend, ReplayBackend
 
 BACKENDS = ("local", "openai", "oracle", "noisy-oracle", "replay:FILE")
+#: The prefix of ``auto:BACKEND``.
+AUTO = "auto"
+
+
+def auto_backend(spec: str) -> str | None:
+    """The backend of ``auto:BACKEND`` (``auto``: ``local``), or ``None`` when ``spec`` is not auto."""
+    if spec == AUTO:
+        return "local"
+    if not spec.startswith(AUTO + ":"):
+        return None
+    inner = spec.removeprefix(AUTO + ":")
+    known = inner in BACKENDS[:-1] or (inner.startswith("replay:") and inner != "replay:")
+    if not known:  # checked now: the backend may never be built
+        raise InputError(f"auto needs a backend: auto:BACKEND with one of {', '.join(BACKENDS)}, not {spec!r}")
+    return inner
 
 
 @dataclass(frozen=True)
@@ -61,6 +78,8 @@ def make_backend(spec: str, scenario: Scenario, options: BackendOptions = Backen
             prompt_cache=options.prompt_cache,
             constrain=options.constrain,
         )
+    elif auto_backend(spec) is not None:
+        raise InputError(f"{spec} is a mode of hbtp plan --llm, not a backend; give the backend alone")
     else:
         raise InputError(f"unknown LLM backend {spec!r}; choose one of: {', '.join(BACKENDS)}")
     if options.record:
