@@ -562,3 +562,38 @@ def test_a_goal_with_many_unreachable_literals_gets_a_short_message(
     assert first.startswith("unsolvable:")
     assert f"and {len(unreachable) - 10} more" in first
     assert len(first) < 600
+
+
+# ------------------------------------------------------------------ the problem's :goal (issue 11, item 3)
+HOUSEHOLD = Path(__file__).parent / "data" / "household"
+
+
+def test_without_goal_the_pddl_problems_goal_is_planned(capsys: pytest.CaptureFixture[str]) -> None:
+    domain, problem = str(HOUSEHOLD / "domain.pddl"), str(HOUSEHOLD / "problem.pddl")
+    code, record = run_json(capsys, "plan", "--pddl", domain, problem, "-p", "obtea")
+    assert code == EXIT_OK
+    assert record["goal"] == "inside_apple_fridge & closed_fridge"
+    explicit_code, explicit = run_json(
+        capsys, "plan", "--pddl", domain, problem, "-p", "obtea", "-g", "inside(apple,fridge) & closed(fridge)"
+    )
+    assert explicit_code == EXIT_OK
+    assert (record["cost"], record["executed"]) == (explicit["cost"], explicit["executed"])
+
+
+def test_without_goal_a_placeholder_or_disjunctive_goal_is_a_one_line_error(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    code, out, err = run(capsys, "plan", "-s", "robowaiter")
+    assert (code, out) == (EXIT_INPUT, "")
+    assert "has no :goal to plan for; give one with -g" in one_line_error(err)
+    problem = (HOUSEHOLD / "problem.pddl").read_text(encoding="utf-8")
+    disjunctive = tmp_path / "or.pddl"
+    disjunctive.write_text(
+        problem.replace(
+            "(:goal (and (inside apple fridge) (closed fridge)))", "(:goal (or (closed fridge) (opened fridge)))"
+        ),
+        encoding="utf-8",
+    )
+    code, out, err = run(capsys, "plan", "--pddl", str(HOUSEHOLD / "domain.pddl"), str(disjunctive))
+    assert (code, out) == (EXIT_INPUT, "")
+    assert "is not a conjunction of atoms (or); give the goal with -g" in one_line_error(err)

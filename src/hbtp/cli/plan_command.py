@@ -221,7 +221,7 @@ class PlanRequest:
     """Everything ``hbtp plan`` was asked to do."""
 
     source: ScenarioSource
-    goal: str
+    goal: str | None  # None: the --pddl problem's :goal
     search: SearchRequest
     outputs: Outputs
     llm: LlmRequest
@@ -229,11 +229,13 @@ class PlanRequest:
 
 @click.command("plan")
 @scenario_options
-@click.option("-g", "--goal", required=True, help=GOAL_HELP)
+@click.option("-g", "--goal", help=GOAL_HELP + " Default: the --pddl problem's :goal.")
 @search_options
 @output_options
 @llm_options
-def plan_command(source: ScenarioSource, goal: str, search: SearchRequest, outputs: Outputs, llm: LlmRequest) -> int:
+def plan_command(
+    source: ScenarioSource, goal: str | None, search: SearchRequest, outputs: Outputs, llm: LlmRequest
+) -> int:
     """Plan a behavior tree that reaches GOAL; exit code 0 when solved, 1 when not."""
     return run_plan(PlanRequest(source, goal, search, outputs, llm))
 
@@ -244,7 +246,8 @@ def run_plan(request: PlanRequest) -> int:
     # One deadline for the whole command: loading, grounding, heuristic set-up and every search.
     limits = search.limits().starting_now()
     loaded = request.source.load(deadline=limits.deadline)
-    goal = loaded.task.resolve_goal(read_goal(request.goal))
+    goal_source = read_goal(request.goal) if request.goal is not None else loaded.problem_goal()
+    goal = loaded.task.resolve_goal(goal_source)
     check_alpha(search.alpha)
     report = _Report(loaded, goal, request)
     spec = request.llm.llm_spec

@@ -21,7 +21,7 @@ from hbtp.deadline import Deadline, check_deadline
 from hbtp.domains import cache
 from hbtp.domains.cache import cache_dir
 from hbtp.domains.grounding import ground
-from hbtp.domains.lifted import Domain, Problem
+from hbtp.domains.lifted import And, AtomFormula, Domain, Formula, Problem
 from hbtp.domains.mutex import Mutexes, infer_mutexes
 from hbtp.domains.pddl_reader import read_domain_file, read_problem_file
 from hbtp.errors import InputError
@@ -70,6 +70,30 @@ class Scenario:
     def pddl(self) -> Pddl:
         """The lifted domain and problem the task was grounded from."""
         return self.parsed if self.parsed is not None else read_pddl(self.domain_file, self.problem_file)
+
+    def problem_goal(self) -> str:
+        """The problem file's ``:goal`` as goal text (``P(a,b) & Q(c)``): the default of ``hbtp plan``.
+
+        Raises :class:`InputError` when the problem has no goal (the shipped scenarios' problems hold
+        a placeholder) or one that is not a conjunction of atoms.
+        """
+        literals: list[str] = []
+        pending: list[Formula] = [self.pddl.problem.goal]
+        while pending:
+            formula = pending.pop()
+            if isinstance(formula, And):
+                pending.extend(reversed(formula.parts))
+            elif isinstance(formula, AtomFormula):
+                literals.append(f"{formula.predicate}({','.join(formula.terms)})")
+            else:
+                where = f"{self.problem_file}:{getattr(formula, 'line', 0) or '?'}"
+                raise InputError(
+                    f"{where}: the problem's :goal is not a conjunction of atoms "
+                    f"({type(formula).__name__.lower()}); give the goal with -g"
+                )
+        if not literals:
+            raise InputError(f"{self.problem_file}: the problem has no :goal to plan for; give one with -g")
+        return " & ".join(literals)
 
     def summary(self) -> dict[str, Any]:
         """The figures ``hbtp scenarios`` prints."""
