@@ -34,7 +34,7 @@ def test_one_table() -> None:
     ("argv", "message"),
     [
         (["run"], "Missing argument 'TREE_FILE'"),
-        (["plan", "-s", "robothow-small"], "Missing option '-g' / '--goal'"),
+        (["plan", "-s", "robothow-small", "-p", "nope"], "Invalid value for '-p' / '--planner'"),
         (["plan", "--no-such-option"], "No such option"),
         (["no-such-command"], "No such command 'no-such-command'"),
         (["run", "tree.json", "--perturb", "2"], "[0, 1]"),

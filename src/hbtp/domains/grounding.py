@@ -7,6 +7,9 @@ and ``(forall (?z) (when (not (= ?z ?x)) (not (IsNear self ?z))))`` becomes a li
 Bindings are enumerated by joining the static facts that an action's precondition requires (each
 disjunct of its static part in turn), so an action over 126 objects never tries all pairs blindly.
 
+With ``reachable_only``, only the actions reachable from s0 under the delete relaxation are kept
+(:func:`~hbtp.domains.reachability.reachable_actions`), with the atoms s0 or they mention.
+
 Before enumerating, the number of ground actions of each schema is bounded from above (the join's
 size: per static atom, at most its number of facts; per remaining parameter, the objects of its
 type). A task whose bound exceeds ``max_ground_actions`` (by default ``$HBTP_MAX_GROUND_ACTIONS``, else
@@ -48,6 +51,7 @@ from hbtp.domains.lifted import (
     WhenEffect,
     is_variable,
 )
+from hbtp.domains.reachability import reachable_actions
 from hbtp.errors import GroundingError, InputError
 from hbtp.logic.atoms import Atom
 from hbtp.logic.task import GroundAction, GroundTask, listing
@@ -91,6 +95,7 @@ def ground(
     name: str | None = None,
     max_ground_actions: int | None = None,
     deadline: Deadline | None = None,
+    reachable_only: bool = False,
 ) -> GroundTask:
     """Ground ``problem`` of ``domain``.
 
@@ -100,13 +105,14 @@ def ground(
     (the objects an LLM reasons about); by default O is the problem's ``:objects``.
     A task whose estimated number of ground actions exceeds ``max_ground_actions`` (default:
     :func:`ground_actions_limit`) is refused (:class:`~hbtp.errors.GroundingError`); past ``deadline``,
-    :class:`~hbtp.deadline.TimeLimitReached`.
+    :class:`~hbtp.deadline.TimeLimitReached`. With ``reachable_only``, the actions that cannot be
+    applied from s0 even when deletes are ignored are left out, with the atoms only they mention.
     """
     if max_ground_actions is None:
         max_ground_actions = ground_actions_limit()
     if max_ground_actions < 1:
         raise InputError(f"max_ground_actions must be at least 1, not {max_ground_actions}")
-    grounder = _Grounder(domain, problem, frozenset(keep_fluent), deadline)
+    grounder = _Grounder(domain, problem, frozenset(keep_fluent), deadline, reachable_only)
     grounder.check_size(max_ground_actions)
     stopped = ""
     try:
@@ -131,9 +137,15 @@ def ground(
 
 class _Grounder:
     def __init__(
-        self, domain: Domain, problem: Problem, keep_fluent: frozenset[str], deadline: Deadline | None = None
+        self,
+        domain: Domain,
+        problem: Problem,
+        keep_fluent: frozenset[str],
+        deadline: Deadline | None = None,
+        reachable_only: bool = False,
     ) -> None:
         self.domain = domain
+        self.reachable_only = reachable_only
         self.problem = problem
         self.deadline = deadline
         self.ticks = 0
@@ -244,6 +256,11 @@ class _Grounder:
                 self.deadline.check(_PHASE)
             grounded.extend(self._ground_schema(schema))
         grounded.sort(key=lambda g: str(g[0]))
+        if self.reachable_only:
+            found = len(grounded)
+            kept = reachable_actions(self.initial, [(pre, add) for _, pre, add, _, _ in grounded], self.tick)
+            grounded = [grounded[index] for index in kept]
+            log.debug("%s: %d of %d ground actions are unreachable from s0", task_name, found - len(grounded), found)
         all_atoms: set[Atom] = set(self.initial)
         for _, pre, add, delete, _ in grounded:
             all_atoms |= pre | add | delete
