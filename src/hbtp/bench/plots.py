@@ -282,3 +282,28 @@ def plot_payoff(summary: dict[str, Any], path: Path) -> bool:
         axis.legend(fontsize=7)
     figure.suptitle("When does the LLM pay? LLM-guided HBTP against LLM-free planning")
     return _save(plt, figure, path)
+
+
+def plot_pddl_coverage(summary: dict[str, Any], path: Path) -> bool:
+    """``bench pddl``: instances solved (verified) within t seconds (load + planning), per planner."""
+    plt = _pyplot()
+    if plt is None:
+        return False
+    figure, axis = plt.subplots(figsize=(7, 4.6))
+    limit = float(summary["config"]["time_limit"])
+    for index, (planner, stats) in enumerate(summary["planners"].items()):
+        times = [max(t, 1e-3) for t in stats["solve_times"]]
+        xs = [1e-3, *times, 2 * limit]
+        ys = [0, *range(1, len(times) + 1), len(times)]
+        label = f"{PLANNER_LABELS.get(planner, planner)} ({len(times)}/{stats['instances']})"
+        axis.step(xs, ys, where="post", color=f"C{index % 10}", linestyle=LINE_STYLES[index % 4], label=label)
+    total = max((s["instances"] for s in summary["planners"].values()), default=0)
+    axis.axhline(total, color="grey", linewidth=0.8, linestyle=":")
+    axis.set_xscale("log")
+    axis.set(
+        title=f"Coverage over time (heuristic {summary['config']['heuristic']}, {limit:g} s per run)",
+        xlabel="seconds (load + planning)",
+        ylabel="instances solved (verified tree)",
+    )
+    axis.legend(fontsize=8, loc="upper left")
+    return _save(plt, figure, path)

@@ -12,6 +12,7 @@ import click
 from hbtp.bench.fig3 import Fig3Config, run_fig3
 from hbtp.bench.fig4 import Fig4Config, run_fig4
 from hbtp.bench.payoff import SETS, PayoffConfig, run_payoff
+from hbtp.bench.pddl_suite import PddlConfig, run_pddl
 from hbtp.bench.runner import Execution
 from hbtp.bench.suite import PARTS, SuiteConfig, run_suite
 from hbtp.bench.table1 import Table1Config, run_table1
@@ -406,4 +407,38 @@ def payoff(
         for name, found in by_name.items():
             click.echo(f"{axis}: {name} faster (median total) in: {', '.join(found['total_s']['faster_in']) or 'none'}")
     click.echo(f"wrote {Path(out_dir)}/results.jsonl, summary.json, report.md (and payoff.png with the plot extra)")
+    return 0
+
+
+@bench.command("pddl")
+@click.argument("folder", metavar="DIR", type=click.Path(path_type=Path))
+@click.option("--planners", default="obtea", show_default=True, help="Comma-separated planners.")
+@click.option(
+    "--heuristic", type=click.Choice(list(HEURISTICS)), default="lm", show_default=True, help="LLM-free heuristic."
+)
+@click.option(
+    "-t", "--time-limit", type=float, default=60.0, show_default=True, help="Seconds per run (load, then search)."
+)
+@click.option("--validate", is_flag=True, help="Fast Downward's optimal cost where DIR has none (validate extra).")
+@out_dir_option
+@execution_options
+def pddl(
+    folder: Path, planners: str, heuristic: str, time_limit: float, validate: bool, out_dir: str, execution: Execution
+) -> int:
+    """Every DIR/<domain>/domain.pddl with each other .pddl there: coverage, cost, time, optimal costs
+    (DIR/fd_optimal_costs.json, or Fast Downward with --validate)."""
+    if not (time_limit > 0 and time_limit < float("inf")):
+        raise click.BadParameter("must be a positive number of seconds", param_hint="--time-limit")
+    chosen = comma_choices(planners, PLANNERS, "--planners", "planner")
+    config = PddlConfig(chosen, cast(HeuristicName, heuristic), time_limit, validate)
+    summary = run_pddl(folder, config, Path(out_dir), execution)
+    click.echo(f"{'planner':8} {'verified':>9} {'median s':>9}   per domain")
+    for name, row in summary["planners"].items():
+        domains = " ".join(f"{d}:{n}" for d, n in row["by_domain"].items())
+        click.echo(f"{name:8} {row['verified']:>4}/{row['instances']:<4} {_fmt(row['median_time_s'], 9)}   {domains}")
+    for m in summary["mismatches"]:
+        click.echo(f"MISMATCH {m['domain']}/{m['instance']} {m['planner']}: cost {m['cost']}, optimal "
+                   f"{m['reference_cost']} ({m['reference_source']})")  # fmt: skip
+    click.echo(f"{len(summary['mismatches'])} mismatch(es) in {summary['compared']} compared runs")
+    click.echo(f"wrote {Path(out_dir)}/results.jsonl, summary.json, report.md (and coverage.png with the plot extra)")
     return 0

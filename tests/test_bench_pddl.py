@@ -1,0 +1,133 @@
+"""``hbtp bench pddl DIR`` in process: discovery of domains and instances, verified trees, reference
+costs with a deliberately wrong one flagged, resuming, and a one-line error for a bad folder."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from hbtp.bench.pddl_suite import discover, mismatch
+from hbtp.cli import EXIT_INPUT, EXIT_OK, main
+
+INLINE = ["--executor", "inline", "--no-progress"]
+
+SWITCH_DOMAIN = """(define (domain switch)
+  (:requirements :strips :typing)
+  (:types lamp)
+  (:predicates (on ?l - lamp) (off ?l - lamp))
+  (:action turn-on :parameters (?l - lamp) :precondition (off ?l) :effect (and (on ?l) (not (off ?l)))))
+"""
+
+MOVE_DOMAIN = """(define (domain move)
+  (:requirements :strips :typing)
+  (:types room)
+  (:predicates (at ?r - room) (door ?a - room ?b - room))
+  (:action go :parameters (?a - room ?b - room)
+    :precondition (and (at ?a) (door ?a ?b)) :effect (and (at ?b) (not (at ?a)))))
+"""
+
+
+def _switch_problem(name: str, lamps: int) -> str:
+    objects = " ".join(f"l{i}" for i in range(lamps))
+    init = " ".join(f"(off l{i})" for i in range(lamps))
+    goal = " ".join(f"(on l{i})" for i in range(lamps))
+    return f"(define (problem {name}) (:domain switch) (:objects {objects} - lamp) (:init {init}) (:goal (and {goal})))"
+
+
+def _move_problem(name: str, rooms: int) -> str:
+    objects = " ".join(f"r{i}" for i in range(rooms))
+    doors = " ".join(f"(door r{i} r{i + 1})" for i in range(rooms - 1))
+    return (
+        f"(define (problem {name}) (:domain move) (:objects {objects} - room) (:init (at r0) {doors}) "
+        f"(:goal (at r{rooms - 1})))"
+    )
+
+
+@pytest.fixture
+def suite(tmp_path: Path) -> Path:
+    """Two domains, two instances each; a reference file with one wrong entry (move/m2 is 2, not 3)."""
+    root = tmp_path / "benchmarks"
+    for domain, text, problems in (
+        ("switch", SWITCH_DOMAIN, {"s1": _switch_problem("s1", 1), "s2": _switch_problem("s2", 2)}),
+        ("move", MOVE_DOMAIN, {"m1": _move_problem("m1", 2), "m2": _move_problem("m2", 3)}),
+    ):
+        (root / domain).mkdir(parents=True)
+        (root / domain / "domain.pddl").write_text(text, encoding="utf-8")
+        for name, problem in problems.items():
+            (root / domain / f"{name}.pddl").write_text(problem, encoding="utf-8")
+    references = {"switch": {"s1": 1, "s2": 2}, "move": {"m1": 1, "m2": 3}}
+    (root / "fd_optimal_costs.json").write_text(json.dumps(references), encoding="utf-8")
+    return root
+
+
+def rows(path: Path) -> list[dict[str, Any]]:
+    return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
+
+
+def test_discover_pairs_domains_and_problems(suite: Path, tmp_path: Path) -> None:
+    found = {(i.domain, i.name) for i in discover(suite)}
+    assert found == {("switch", "s1"), ("switch", "s2"), ("move", "m1"), ("move", "m2")}
+    paired = tmp_path / "paired" / "d"
+    paired.mkdir(parents=True)
+    (paired / "domain_p1.pddl").write_text(SWITCH_DOMAIN, encoding="utf-8")
+    (paired / "p1.pddl").write_text(_switch_problem("p1", 1), encoding="utf-8")
+    (instance,) = discover(paired.parent)
+    assert instance.domain_file.name == "domain_p1.pddl"
+
+
+def test_mismatch_rules() -> None:
+    assert mismatch("obtea", 3.0, 2.0)
+    assert mismatch("obtea", 1.0, 2.0)
+    assert not mismatch("hbtp-s", 3.0, 2.0)
+    assert mismatch("hbtp-s", 1.0, 2.0)
+    assert not mismatch("obtea", None, 2.0)
+    assert not mismatch("obtea", 2.0, None)
+
+
+def test_pddl_runs_verifies_flags_the_wrong_reference_and_resumes(
+    suite: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    argv = ["bench", "pddl", str(suite), "--planners", "obtea,bte", "-t", "10", *INLINE, "-o", str(out)]
+    assert main(argv) == EXIT_OK
+    printed = capsys.readouterr().out
+    results = rows(out / "results.jsonl")
+    assert len(results) == 8
+    assert all(r["solved"] and r["verified"] and r["actions"] > 0 and r["load_s"] >= 0 for r in results)
+    obtea = {(r["domain"], r["instance"]): r["cost"] for r in results if r["planner"] == "obtea"}
+    assert obtea == {("switch", "s1"): 1, ("switch", "s2"): 2, ("move", "m1"): 1, ("move", "m2"): 2}
+    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    assert summary["planners"]["obtea"]["verified"] == 4
+    assert summary["planners"]["obtea"]["by_domain"] == {"switch": 2, "move": 2}
+    assert [(m["instance"], m["planner"]) for m in summary["mismatches"]] == [("m2", "obtea"), ("m2", "bte")]
+    assert "MISMATCH move/m2 obtea" in printed
+    assert "2 MISMATCH(ES)" in (out / "report.md").read_text(encoding="utf-8")
+    before = (out / "results.jsonl").read_text(encoding="utf-8")
+    assert main(argv) == EXIT_OK  # resumed: nothing runs again
+    assert (out / "results.jsonl").read_text(encoding="utf-8") == before
+
+
+def test_pddl_bad_folder_is_a_one_line_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    for folder in (tmp_path / "missing", tmp_path):
+        assert main(["bench", "pddl", str(folder), *INLINE, "-o", str(tmp_path / "out")]) == EXIT_INPUT
+        error = capsys.readouterr().err.strip()
+        assert error.count("\n") == 0
+        assert str(folder) in error
+
+
+@pytest.mark.validate
+def test_pddl_validate_runs_fast_downward_where_no_reference(tmp_path: Path) -> None:
+    pytest.importorskip("up_fast_downward")
+    root = tmp_path / "bench" / "switch"
+    root.mkdir(parents=True)
+    (root / "domain.pddl").write_text(SWITCH_DOMAIN, encoding="utf-8")
+    (root / "s2.pddl").write_text(_switch_problem("s2", 2), encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["bench", "pddl", str(root.parent), "--validate", *INLINE, "-o", str(out)]) == EXIT_OK
+    (row,) = rows(out / "results.jsonl")
+    assert row["reference_source"] == "fast-downward"
+    assert row["reference_cost"] == row["cost"] == 2
+    assert not row["mismatch"]
