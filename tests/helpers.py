@@ -10,9 +10,11 @@ from __future__ import annotations
 import heapq
 import random
 import re
+import threading
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 
 from hbtp.bt import Condition, Fallback, Node, NodeStatus, tick
@@ -281,3 +283,30 @@ def plan_goals(goals: dict[str, Sequence[str]]) -> dict[tuple[str, str], tuple[G
             assert result.solved, (scenario, goal)
             results[scenario, goal] = (loaded.task, result)
     return results
+
+
+# ---------------------------------------------------------------------------------- loopback servers
+class LoopbackHTTP:
+    """An HTTP server on 127.0.0.1 in a daemon thread, for tests of the LLM backends: ``base_url``
+    is its OpenAI-style ``/v1`` address; :meth:`close` stops it."""
+
+    def __init__(self, handler: type[BaseHTTPRequestHandler]) -> None:
+        self.httpd = ThreadingHTTPServer(("127.0.0.1", 0), handler)
+        self.httpd.daemon_threads = True
+        self.base_url = f"http://127.0.0.1:{self.httpd.server_address[1]}/v1"
+        self.thread = threading.Thread(target=self.httpd.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
+        self.thread.start()
+
+    def close(self) -> None:
+        self.httpd.shutdown()
+        self.httpd.server_close()
+        self.thread.join(5)
+
+
+def send_json_bytes(handler: BaseHTTPRequestHandler, status: int, data: bytes) -> None:
+    """Answer ``handler``'s request with ``data`` as an ``application/json`` body."""
+    handler.send_response(status)
+    handler.send_header("Content-Type", "application/json")
+    handler.send_header("Content-Length", str(len(data)))
+    handler.end_headers()
+    handler.wfile.write(data)

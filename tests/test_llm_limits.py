@@ -14,7 +14,7 @@ import socket
 import threading
 import time
 from collections.abc import Callable, Iterator
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from http.server import BaseHTTPRequestHandler
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +33,7 @@ from hbtp.llm.redact import REDACTED, redact
 from hbtp.pipeline import LoopOptions, RoundStatus, run_hbtp
 from hbtp.pipeline import loop as loop_module
 from hbtp.planning import Limits
+from helpers import LoopbackHTTP, send_json_bytes
 
 GOAL = "On_Coffee_Table1"  # robowaiter: the full-space fallback solves it in milliseconds
 SLACK = 5.0  # generous: the bound asserted is the limit plus this
@@ -179,22 +180,13 @@ class JsonServer:
                 server.requests.append({"path": self.path, "json": payload})
                 status, body = respond(self.path, payload)
                 data = json.dumps(body).encode()
-                self.send_response(status)
-                self.send_header("Content-Type", "application/json")
-                self.send_header("Content-Length", str(len(data)))
-                self.end_headers()
-                self.wfile.write(data)
+                send_json_bytes(self, status, data)
 
-        self.httpd = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
-        self.httpd.daemon_threads = True
-        self.base_url = f"http://127.0.0.1:{self.httpd.server_address[1]}/v1"
-        self.thread = threading.Thread(target=self.httpd.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
-        self.thread.start()
+        self.http = LoopbackHTTP(Handler)
+        self.base_url = self.http.base_url
 
     def stop(self) -> None:
-        self.httpd.shutdown()
-        self.httpd.server_close()
-        self.thread.join(5)
+        self.http.close()
 
 
 @pytest.fixture

@@ -14,7 +14,7 @@ import socket
 import threading
 import time
 from collections.abc import Callable, Iterator
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from http.server import BaseHTTPRequestHandler
 from pathlib import Path
 from typing import Any
 
@@ -35,7 +35,7 @@ from hbtp.pipeline.loop import longest_paths
 from hbtp.planning import Hints, plan
 from hbtp.planning.execution import execute_expansions
 from hbtp.planning.result import Status
-from helpers import reaches
+from helpers import LoopbackHTTP, reaches, send_json_bytes
 
 HAVE_XLLAMACPP = importlib.util.find_spec("xllamacpp") is not None
 HAVE_OPENAI = importlib.util.find_spec("openai") is not None
@@ -523,23 +523,14 @@ class FakeOpenAI:
                         kind = "text_completion"
                     body = {"id": "x", "object": kind, "created": 0, "model": "fake", "choices": [choice]}
                     answer = json.dumps(body).encode()
-                self.send_response(200)
-                self.send_header("Content-Type", "application/json")
-                self.send_header("Content-Length", str(len(answer)))
-                self.end_headers()
-                self.wfile.write(answer)
+                send_json_bytes(self, 200, answer)
 
-        self.httpd = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
-        self.httpd.daemon_threads = True
-        self.base_url = f"http://127.0.0.1:{self.httpd.server_address[1]}/v1"
-        self.thread = threading.Thread(target=self.httpd.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
-        self.thread.start()
+        self.http = LoopbackHTTP(Handler)
+        self.base_url = self.http.base_url
 
     def stop(self) -> None:
         self.release.set()
-        self.httpd.shutdown()
-        self.httpd.server_close()
-        self.thread.join(5)
+        self.http.close()
 
 
 @pytest.fixture
