@@ -6,16 +6,20 @@ and ``(forall (?z) (when (not (= ?z ?x)) (not (IsNear self ?z))))`` becomes a li
 
 Bindings are enumerated by joining the static facts that an action's precondition requires (each
 disjunct of its static part in turn), so an action over 126 objects never tries all pairs blindly.
+Each join step looks its facts up in an index keyed by the arguments already bound; a ``forall``
+effect's guard is joined once per distinct value of the outer variables it mentions.
 
 With ``reachable_only``, only the actions reachable from s0 under the delete relaxation are kept
-(:func:`~hbtp.domains.reachability.reachable_actions`), with the atoms s0 or they mention.
+(:func:`~hbtp.domains.reachability.reachable_actions`), with the atoms s0 or they mention. With
+``only``, only the ground actions it accepts are built (their effects computed), with the atoms s0
+or they mention; :func:`action_bindings` lists the ground actions and their costs without effects.
 
 Before enumerating, the number of ground actions of each schema is bounded from above (the join's
 size: per static atom, at most its number of facts; per remaining parameter, the objects of its
 type). A task whose bound exceeds ``max_ground_actions`` (by default ``$HBTP_MAX_GROUND_ACTIONS``, else
 :data:`MAX_GROUND_ACTIONS`; a ground action takes about 1-2 KB of memory) is refused with a one-line
-:class:`~hbtp.errors.GroundingError` before any memory is spent; a ``deadline`` stops grounding with
-:class:`~hbtp.deadline.TimeLimitReached`.
+:class:`~hbtp.errors.GroundingError` before any memory is spent (with ``only``, the bound applies to
+the actions kept instead); a ``deadline`` stops grounding with :class:`~hbtp.deadline.TimeLimitReached`.
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ import itertools
 import logging
 import math
 import os
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 
 from hbtp.deadline import Deadline, TimeLimitReached
@@ -37,6 +41,7 @@ from hbtp.domains.lifted import (
     And,
     AndEffect,
     AtomFormula,
+    CostEffect,
     DeleteEffect,
     Domain,
     Effect,
@@ -59,6 +64,10 @@ from hbtp.logic.task import GroundAction, GroundTask, listing
 log = logging.getLogger(__name__)
 
 Binding = dict[str, str]
+#: Which ground actions to build: called with the schema's name and the argument tuple.
+ActionFilter = Callable[[str, tuple[str, ...]], bool]
+#: Per action schema, the argument tuples of its ground actions with their costs (see :func:`action_bindings`).
+ActionBindings = dict[str, tuple[tuple[tuple[str, ...], int], ...]]
 
 #: The default bound on the number of ground actions (see the module docstring).
 MAX_GROUND_ACTIONS = 1_000_000
@@ -66,6 +75,18 @@ MAX_GROUND_ACTIONS = 1_000_000
 MAX_DNF_TERMS = 10_000
 _PHASE = "grounding"
 LIMIT_VARIABLE = "HBTP_MAX_GROUND_ACTIONS"
+_TICKS = 4096  # units of work between two deadline checks
+
+# Inside the grounder an atom is the plain tuple (predicate, arguments): it hashes and sorts as Atom
+# does, much faster; Atoms are made once per distinct atom when the task is assembled.
+_Key = tuple[str, tuple[str, ...]]
+_Template = tuple[tuple[bool, str], ...]  # (is a variable, name) per argument
+_Check = Callable[[Binding], bool]
+_Fluent = Callable[[Binding], "bool | list[_Key]"]
+_Op = Callable[[Binding, set[_Key], set[_Key], list[int]], None]
+_Built = tuple[tuple[str, ...], list[_Key], set[_Key], set[_Key], int]
+_Grounded = tuple[Atom, frozenset[_Key], frozenset[_Key], frozenset[_Key], int]
+_Segment = tuple[list[tuple[str, ...]], tuple[_Check, ...]]  # a forall's values, with their checks
 
 
 def ground_actions_limit() -> int:
@@ -96,6 +117,7 @@ def ground(
     max_ground_actions: int | None = None,
     deadline: Deadline | None = None,
     reachable_only: bool = False,
+    only: ActionFilter | None = None,
 ) -> GroundTask:
     """Ground ``problem`` of ``domain``.
 
@@ -107,13 +129,19 @@ def ground(
     :func:`ground_actions_limit`) is refused (:class:`~hbtp.errors.GroundingError`); past ``deadline``,
     :class:`~hbtp.deadline.TimeLimitReached`. With ``reachable_only``, the actions that cannot be
     applied from s0 even when deletes are ignored are left out, with the atoms only they mention.
+    With ``only``, only the ground actions whose schema name and arguments it accepts are built
+    (exactly as in the full task, re-indexed), with the atoms s0 or they mention; the limit then
+    applies to the number of actions kept, not to the estimate of all of them.
     """
     if max_ground_actions is None:
         max_ground_actions = ground_actions_limit()
     if max_ground_actions < 1:
         raise InputError(f"max_ground_actions must be at least 1, not {max_ground_actions}")
     grounder = _Grounder(domain, problem, frozenset(keep_fluent), deadline, reachable_only)
-    grounder.check_size(max_ground_actions)
+    if only is None:
+        grounder.check_size(max_ground_actions)
+    else:
+        grounder.select(only, max_ground_actions)
     stopped = ""
     try:
         task = grounder.run(name or problem.name)
@@ -135,6 +163,77 @@ def ground(
     return dataclasses.replace(task, objects=objects, constants=constants)
 
 
+def action_bindings(
+    domain: Domain,
+    problem: Problem,
+    *,
+    keep_fluent: Iterable[str] = (),
+    deadline: Deadline | None = None,
+) -> ActionBindings:
+    """Per action schema (in the domain's order), the sorted ``(arguments, cost)`` of its ground actions.
+
+    These are exactly the actions :func:`ground` (without ``reachable_only``) builds: the static
+    precondition holds, the fluent one is not false once statics are evaluated, the cost is defined.
+    Add and delete effects are not computed, so this is much cheaper than grounding; no size limit
+    applies. Past ``deadline``, :class:`~hbtp.deadline.TimeLimitReached`.
+    """
+    grounder = _Grounder(domain, problem, frozenset(keep_fluent), deadline)
+    found: ActionBindings = {}
+    stopped = ""
+    try:
+        for schema in domain.actions:
+            grounder.check_deadline()
+            built = grounder.build(schema, costs_only=True)
+            found[schema.name] = tuple(sorted((key, cost) for key, _, _, _, cost in built))
+    except TimeLimitReached as stop:
+        stopped = str(stop)
+    if stopped:
+        raise TimeLimitReached(stopped)
+    return found
+
+
+@dataclass(frozen=True, slots=True)
+class _Step:
+    """One positive static atom of a join: its facts looked up by the arguments already bound.
+
+    ``positions`` (the index's key) are the bound arguments, ``lookup`` reads their values from a
+    binding; ``new`` binds each unbound variable from its first position, ``same`` checks a variable's
+    later positions; ``checks`` are the literals and types first decided once this step has bound.
+    """
+
+    predicate: str
+    positions: tuple[int, ...]
+    lookup: Callable[[Binding], tuple[str, ...]]
+    new: tuple[tuple[str, int], ...]
+    same: tuple[tuple[int, int], ...]
+    checks: tuple[_Check, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class _Plan:
+    """How one DNF term is joined: equalities bind, ``checks`` filter, the steps extend, then the
+    parameters still ``unbound`` range over their ``domains`` and ``last_checks`` filter."""
+
+    equalities: tuple[Equals, ...]
+    checks: tuple[_Check, ...]
+    steps: tuple[_Step, ...]
+    unbound: tuple[str, ...]
+    domains: tuple[tuple[str, ...], ...]
+    last_checks: tuple[_Check, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class _Schema:
+    """An action schema compiled for grounding: its static precondition in DNF, its fluent
+    precondition parts, and its effects (all of them, or only what adds to the cost)."""
+
+    names: tuple[str, ...]
+    static: list[list[_Literal]]
+    fluent: tuple[_Fluent, ...]
+    ops: tuple[_Op, ...]
+    cost_ops: tuple[_Op, ...]
+
+
 class _Grounder:
     def __init__(
         self,
@@ -149,18 +248,25 @@ class _Grounder:
         self.problem = problem
         self.deadline = deadline
         self.ticks = 0
+        self.only: ActionFilter | None = None
+        self.kept = 0
+        self.kept_limit = 0
+        self.uses_costs = domain.uses_action_costs
         unknown = sorted(keep_fluent - set(domain.predicates))
         if unknown:
             raise InputError(f"keep_fluent names unknown predicate(s): {', '.join(unknown)}")
         self.fluent = _effect_predicates(domain.actions) | keep_fluent
         self.objects: tuple[TypedName, ...] = (*domain.constants, *problem.objects)
         self.by_type = self._objects_by_type()
-        self.static_facts: set[tuple[str, tuple[str, ...]]] = set()
+        self.static_facts: set[_Key] = set()
         self.static_index: dict[str, list[tuple[str, ...]]] = {}
-        self.initial: set[Atom] = set()
+        self.indexes: dict[tuple[str, tuple[int, ...]], dict[tuple[str, ...], list[tuple[str, ...]]]] = {}
+        self.plans: dict[tuple[int, tuple[TypedName, ...], frozenset[str]], tuple[list[_Literal], _Plan]] = {}
+        self.initial: set[_Key] = set()
+        self.interned: dict[_Key, _Key] = {}  # one tuple per distinct atom: less memory, quicker lookups
         for fact in problem.init:
             if fact.predicate in self.fluent:
-                self.initial.add(Atom(fact.predicate, fact.terms))
+                self.initial.add((fact.predicate, fact.terms))
             elif (fact.predicate, fact.terms) not in self.static_facts:
                 self.static_facts.add((fact.predicate, fact.terms))
                 self.static_index.setdefault(fact.predicate, []).append(fact.terms)
@@ -187,10 +293,15 @@ class _Grounder:
             merged.extend(self.by_type.get(t, ()))
         return tuple(dict.fromkeys(merged))
 
-    def tick(self) -> None:
-        """Count a unit of work; every 4096 units, check the deadline."""
-        self.ticks += 1
-        if self.ticks & 4095 == 0 and self.deadline is not None:
+    def tick(self, count: int = 1) -> None:
+        """Count ``count`` units of work; every :data:`_TICKS` units, check the deadline."""
+        self.ticks += count
+        if self.ticks >= _TICKS:
+            self.ticks = 0
+            self.check_deadline()
+
+    def check_deadline(self) -> None:
+        if self.deadline is not None:
             self.deadline.check(_PHASE)
 
     # ------------------------------------------------------------------ size
@@ -248,40 +359,66 @@ class _Grounder:
             f"alone may have {largest:,} ({counts} candidate objects)"
         )
 
+    def select(self, only: ActionFilter, limit: int) -> None:
+        """Build only the ground actions ``only`` accepts, refusing more than ``limit`` of them."""
+        self.only = only
+        self.kept_limit = limit
+
+    def _count_kept(self, schema: ActionSchema, key: tuple[str, ...]) -> None:
+        self.kept += 1
+        if self.kept > self.kept_limit:
+            raise GroundingError(
+                f"grounding the selected actions would create more than the limit of {self.kept_limit:,} "
+                f"(max_ground_actions, or {LIMIT_VARIABLE} for the command line): "
+                f"{Atom(schema.name, key)} is action {self.kept:,}"
+            )
+
     # ------------------------------------------------------------------- run
     def run(self, task_name: str) -> GroundTask:
-        grounded: list[tuple[Atom, frozenset[Atom], frozenset[Atom], frozenset[Atom], int]] = []
+        grounded: list[_Grounded] = []
         for schema in self.domain.actions:
-            if self.deadline is not None:
-                self.deadline.check(_PHASE)
+            self.check_deadline()
             grounded.extend(self._ground_schema(schema))
+        self.check_deadline()
         grounded.sort(key=lambda g: str(g[0]))
         if self.reachable_only:
             found = len(grounded)
-            kept = reachable_actions(self.initial, [(pre, add) for _, pre, add, _, _ in grounded], self.tick)
+            kept = reachable_actions(self.initial, [(pre, add) for _, pre, add, _, _ in grounded], self._tick_atom)
             grounded = [grounded[index] for index in kept]
             log.debug("%s: %d of %d ground actions are unreachable from s0", task_name, found - len(grounded), found)
-        all_atoms: set[Atom] = set(self.initial)
+        return self._assemble(task_name, grounded)
+
+    def _tick_atom(self) -> None:
+        """A unit of the reachability fixpoint: a reached atom, which may wake many actions."""
+        self.tick(64)
+
+    def _assemble(self, task_name: str, grounded: list[_Grounded]) -> GroundTask:
+        """The task of the ``grounded`` actions: their atoms and s0's, sorted, and the actions over them."""
+        self.check_deadline()
+        all_atoms: set[_Key] = set(self.initial)
         for _, pre, add, delete, _ in grounded:
-            all_atoms |= pre | add | delete
-        atoms = tuple(sorted(all_atoms))
-        ids = {atom: i for i, atom in enumerate(atoms)}
-        actions = tuple(
-            GroundAction(
-                index,
-                signature,
-                frozenset(ids[a] for a in pre),
-                frozenset(ids[a] for a in add),
-                frozenset(ids[a] for a in delete),
-                cost,
+            all_atoms.update(pre, add, delete)
+        keys = sorted(all_atoms)  # the order of Atom (predicate, then arguments)
+        ids = {key: i for i, key in enumerate(keys)}
+        get = ids.__getitem__
+        actions: list[GroundAction] = []
+        for index, (signature, pre, add, delete, cost) in enumerate(grounded):
+            self.tick()
+            actions.append(
+                GroundAction(
+                    index,
+                    signature,
+                    frozenset(map(get, pre)),
+                    frozenset(map(get, add)),
+                    frozenset(map(get, delete)),
+                    cost,
+                )
             )
-            for index, (signature, pre, add, delete, cost) in enumerate(grounded)
-        )
-        log.debug("grounded %s: %d actions, %d atoms", task_name, len(actions), len(atoms))
+        log.debug("grounded %s: %d actions, %d atoms", task_name, len(actions), len(keys))
         return GroundTask(
             name=task_name,
-            atoms=atoms,
-            actions=actions,
+            atoms=tuple(Atom(predicate, args) for predicate, args in keys),
+            actions=tuple(actions),
             initial_state=frozenset(ids[a] for a in self.initial),
             objects=tuple(o.name for o in self.problem.objects),
             constants=tuple(c.name for c in self.domain.constants),
@@ -289,13 +426,35 @@ class _Grounder:
             static_facts=frozenset(Atom(p, args) for p, args in self.static_facts),
         )
 
-    def _ground_schema(
-        self, schema: ActionSchema
-    ) -> Iterator[tuple[Atom, frozenset[Atom], frozenset[Atom], frozenset[Atom], int]]:
-        static_parts, fluent_parts = self._split_precondition(schema.precondition)
-        seen: set[tuple[str, ...]] = set()
+    def _ground_schema(self, schema: ActionSchema) -> Iterator[_Grounded]:
+        counting = self.only is not None
+        for key, pre, add, delete, cost in self.build(schema, costs_only=False):
+            if counting:
+                self._count_kept(schema, key)
+            yield Atom(schema.name, key), frozenset(pre), frozenset(add), frozenset(delete - add), cost
+
+    def build(self, schema: ActionSchema, costs_only: bool) -> Iterator[_Built]:
+        """The ground actions of ``schema``: arguments, precondition, add, delete (both empty with
+        ``costs_only``) and cost; those whose cost is undefined are left out with a warning."""
+        compiled = self._compile(schema)
+        ops = compiled.cost_ops if costs_only else compiled.ops
         dropped: list[str] = []
-        yield from self._ground_bindings(schema, static_parts, fluent_parts, seen, dropped)
+        for key, binding, pre in self._candidates(schema, compiled):
+            add: set[_Key] = set()
+            delete: set[_Key] = set()
+            costs: list[int] = []
+            try:
+                for op in ops:
+                    op(binding, add, delete, costs)
+            except _UndefinedCost as undefined:
+                dropped.append(undefined.args[0])
+                continue
+            cost = sum(costs) if self.uses_costs else 1
+            if cost > MAX_ACTION_COST:
+                raise GroundingError(
+                    f"action {Atom(schema.name, key)} costs {cost}, more than the maximum {MAX_ACTION_COST}"
+                )
+            yield key, pre, add, delete, cost
         if dropped:
             # Fast Downward's translator only instantiates reachable actions, and fails on one whose cost
             # is undefined; hbtp grounds from static facts alone, so it drops them (elevators' slow lifts).
@@ -307,46 +466,30 @@ class _Grounder:
                 listing(dropped, 3),
             )
 
-    def _ground_bindings(
-        self,
-        schema: ActionSchema,
-        static_parts: list[Formula],
-        fluent_parts: list[Formula],
-        seen: set[tuple[str, ...]],
-        dropped: list[str],
-    ) -> Iterator[tuple[Atom, frozenset[Atom], frozenset[Atom], frozenset[Atom], int]]:
-        params = schema.parameters
-        for binding in self._bindings(static_parts, params, {}, schema):
+    def _candidates(
+        self, schema: ActionSchema, compiled: _Schema
+    ) -> Iterator[tuple[tuple[str, ...], Binding, list[_Key]]]:
+        """Each binding (once) whose static precondition holds, that ``only`` accepts and whose fluent
+        precondition is not false, with the fluent atoms it requires."""
+        names, fluent, only = compiled.names, compiled.fluent, self.only
+        seen: set[tuple[str, ...]] = set()
+        for binding in self._bindings(compiled.static, schema.parameters, {}):
             self.tick()
-            key = tuple(binding[p.name] for p in params)
+            key = tuple([binding[name] for name in names])
             if key in seen:
                 continue
             seen.add(key)
-            pre: list[Atom] = []
-            possible = True
-            for part in fluent_parts:
-                value = self._simplify(part, binding, schema)
-                if value is False:
-                    possible = False
-                    break
-                if value is not True:
+            if only is not None and not only(schema.name, key):
+                continue
+            pre: list[_Key] = []
+            for part in fluent:
+                value = part(binding)
+                if isinstance(value, list):
                     pre.extend(value)
-            if not possible:
-                continue
-            add: set[Atom] = set()
-            delete: set[Atom] = set()
-            costs: list[int] = []
-            try:
-                self._apply_effect(schema.effect, binding, schema, add, delete, costs)
-            except _UndefinedCost as undefined:
-                dropped.append(undefined.args[0])
-                continue
-            cost = sum(costs) if self.domain.uses_action_costs else 1
-            if cost > MAX_ACTION_COST:
-                raise GroundingError(
-                    f"action {Atom(schema.name, key)} costs {cost}, more than the maximum {MAX_ACTION_COST}"
-                )
-            yield Atom(schema.name, key), frozenset(pre), frozenset(add), frozenset(delete - add), cost
+                elif not value:
+                    break
+            else:
+                yield key, binding, pre
 
     # ----------------------------------------------------- static / fluent
     def _is_static(self, formula: Formula) -> bool:
@@ -366,62 +509,251 @@ class _Grounder:
         fluent = [c for c in conjuncts if not self._is_static(c)]
         return static, fluent
 
+    # --------------------------------------------------------------- compile
+    def _compile(self, schema: ActionSchema) -> _Schema:
+        static_parts, fluent_parts = self._split_precondition(schema.precondition)
+        names = tuple(p.name for p in schema.parameters)
+        outer = frozenset(names)
+        return _Schema(
+            names=names,
+            static=_dnf_checked(And(tuple(static_parts)), schema),
+            fluent=tuple(self._compile_fluent(part, schema) for part in fluent_parts),
+            ops=tuple(self._compile_effect(schema.effect, schema, outer, False)),
+            cost_ops=tuple(self._compile_effect(schema.effect, schema, outer, True)),
+        )
+
+    def _compile_fluent(self, formula: Formula, schema: ActionSchema) -> _Fluent:
+        """:meth:`_simplify` of ``formula``, made quicker for a fluent atom or an ``imply`` over statics."""
+        if isinstance(formula, AtomFormula) and formula.predicate in self.fluent:
+            predicate, args, intern = formula.predicate, _getter(formula.terms), self.interned.setdefault
+            return lambda binding: [intern(key := (predicate, args(binding)), key)]
+        if isinstance(formula, Imply) and self._is_static(formula.antecedent):
+            test = self._static_test(formula.antecedent)
+            rest = self._compile_fluent(formula.consequent, schema)
+            return lambda binding: rest(binding) if test(binding) else True
+        return lambda binding: self._simplify(formula, binding, schema)
+
+    def _static_test(self, formula: Formula) -> _Check:
+        """Whether the static ``formula`` holds under a binding (what :meth:`_simplify` computes for it)."""
+        if isinstance(formula, AtomFormula):
+            return _fact_check(formula.predicate, formula.terms, self.static_facts, True)
+        if isinstance(formula, Equals):
+            return _equality_check(formula.left, formula.right, True)
+        if isinstance(formula, Not):
+            inner = self._static_test(formula.operand)
+            return lambda binding: not inner(binding)
+        if isinstance(formula, And | Or):
+            parts = [self._static_test(part) for part in formula.parts]
+            if isinstance(formula, And):
+                return lambda binding: all(part(binding) for part in parts)
+            return lambda binding: any(part(binding) for part in parts)
+        antecedent, consequent = self._static_test(formula.antecedent), self._static_test(formula.consequent)
+        return lambda binding: not antecedent(binding) or consequent(binding)
+
+    def _compile_effect(
+        self, effect: Effect, schema: ActionSchema, outer: frozenset[str], costs_only: bool
+    ) -> list[_Op]:
+        """``effect`` as operations on a binding, in order (with ``costs_only``, only what adds to the
+        cost); ``outer`` names the variables bound where it applies."""
+        if isinstance(effect, AndEffect):
+            return [op for part in effect.parts for op in self._compile_effect(part, schema, outer, costs_only)]
+        if isinstance(effect, AddEffect | DeleteEffect):
+            return (
+                [] if costs_only else [_atom_op(effect.atom, isinstance(effect, AddEffect), self.interned.setdefault)]
+            )
+        if isinstance(effect, WhenEffect):
+            return self._when_op(effect, schema, outer, costs_only)
+        if isinstance(effect, ForallEffect):
+            body: Effect = effect.body
+            guard: Formula | None = None
+            if isinstance(body, WhenEffect) and self._is_static(body.condition):
+                # The guard's join yields only bindings under which the condition holds.
+                guard, body = body.condition, body.body
+            names = frozenset(v.name for v in effect.variables)
+            ops = self._compile_effect(body, schema, outer | names, costs_only)
+            if costs_only and not ops:
+                return []
+            return [_Forall(self, schema, effect.variables, guard, tuple(ops), outer)]
+        return [self._cost_op(effect, schema)]
+
+    def _when_op(self, effect: WhenEffect, schema: ActionSchema, outer: frozenset[str], costs_only: bool) -> list[_Op]:
+        body = tuple(self._compile_effect(effect.body, schema, outer, costs_only))
+        if costs_only and not body:
+            return []
+        if not self._is_static(effect.condition):
+
+            def refuse(binding: Binding, add: set[_Key], delete: set[_Key], costs: list[int]) -> None:
+                raise self._not_strips(schema, effect.line, "a conditional effect on fluents")
+
+            return [refuse]
+        test = self._static_test(effect.condition)
+
+        def when(binding: Binding, add: set[_Key], delete: set[_Key], costs: list[int]) -> None:
+            if test(binding):
+                for op in body:
+                    op(binding, add, delete, costs)
+
+        return [when]
+
+    def _cost_op(self, effect: CostEffect, schema: ActionSchema) -> _Op:
+        amount = effect.amount
+        if isinstance(amount, int):
+            fixed = amount
+            return lambda binding, add, delete, costs: costs.append(fixed)
+        predicate, args, numeric = amount.predicate, _getter(amount.terms), self.problem.numeric_init
+
+        def cost(binding: Binding, add: set[_Key], delete: set[_Key], costs: list[int]) -> None:
+            key = (predicate, args(binding))
+            if key not in numeric:
+                raise _UndefinedCost(f"({' '.join((key[0], *key[1]))})")
+            value = numeric[key]
+            if value < 0:
+                raise GroundingError(
+                    f"action {schema.name!r}: cost ({' '.join((key[0], *key[1]))}) is {value}, "
+                    "and action costs must not be negative"
+                )
+            costs.append(value)
+
+        return cost
+
     # --------------------------------------------------------------- binding
     def _bindings(
-        self, static_parts: list[Formula], params: Iterable[TypedName], start: Binding, schema: ActionSchema
+        self, terms: list[list[_Literal]], params: tuple[TypedName, ...], start: Binding
     ) -> Iterator[Binding]:
-        """Every binding of ``params`` (extending ``start``) under which ``static_parts`` all hold."""
-        params = tuple(params)
-        for term in _dnf_checked(And(tuple(static_parts)), schema):
+        """Every binding of ``params`` (extending ``start``) under which some term of ``terms`` holds."""
+        for term in terms:
             yield from self._join(term, params, start)
 
     def _join(self, term: list[_Literal], params: tuple[TypedName, ...], start: Binding) -> Iterator[Binding]:
-        partial: list[Binding] = [dict(start)]
-        positives = [lit.formula for lit in term if lit.positive and isinstance(lit.formula, AtomFormula)]
-        positives.sort(key=lambda atom: len(self.static_index.get(atom.predicate, ())))
-        for lit in term:
-            if lit.positive and isinstance(lit.formula, Equals):
-                partial = [b for b in (_bind_equal(b, lit.formula) for b in partial) if b is not None]
-        for atom in positives:
-            facts = self.static_index.get(atom.predicate, [])
-            extended: list[Binding] = []
-            for binding in partial:
-                self.tick()
-                for fact in facts:
-                    new = _unify(atom.terms, fact, binding)
-                    if new is not None:
-                        extended.append(new)
-            partial = extended
+        plan = self._plan(term, params, start)
+        binding = dict(start)
+        for equal in plan.equalities:
+            bound = _bind_equal(binding, equal)
+            if bound is None:
+                return
+            binding = bound
+        if plan.checks and not all(check(binding) for check in plan.checks):
+            return
+        partial = [binding]
+        for step in plan.steps:
+            partial = self._extend(step, partial)
             if not partial:
                 return
+        checks, names = plan.last_checks, plan.unbound
         for binding in partial:
-            unbound = [p for p in params if p.name not in binding]
-            domains = [self.domain_of(p) for p in unbound]
-            for values in itertools.product(*domains):
+            if not names:
                 self.tick()
-                full = dict(binding)
-                full.update(zip((p.name for p in unbound), values, strict=True))
-                if self._types_ok(params, full) and all(self._holds(lit, full) for lit in term):
+                if not checks or all(check(binding) for check in checks):
+                    yield binding
+                continue
+            for values in itertools.product(*plan.domains):
+                self.tick()
+                full = binding.copy()
+                full.update(zip(names, values, strict=True))
+                if not checks or all(check(full) for check in checks):
                     yield full
 
-    def _types_ok(self, params: tuple[TypedName, ...], binding: Binding) -> bool:
-        return all(p.types == (OBJECT_TYPE,) or binding[p.name] in self.domain_of(p) for p in params)
+    def _extend(self, step: _Step, partial: list[Binding]) -> list[Binding]:
+        """The bindings of ``partial`` extended by each fact of ``step`` that agrees with them."""
+        index = self._index(step.predicate, step.positions)
+        lookup, new, same, checks = step.lookup, step.new, step.same, step.checks
+        extended: list[Binding] = []
+        if len(new) == 1 and not same:  # the usual case, made quicker
+            ((variable, position),) = new
+            for binding in partial:
+                facts = index.get(lookup(binding), ())
+                self.tick(1 + len(facts))
+                for fact in facts:
+                    grown = binding.copy()
+                    grown[variable] = fact[position]
+                    if not checks or all(check(grown) for check in checks):
+                        extended.append(grown)
+            return extended
+        for binding in partial:
+            facts = index.get(lookup(binding), ())
+            self.tick(1 + len(facts))
+            for fact in facts:
+                if same and any(fact[i] != fact[j] for i, j in same):
+                    continue
+                grown = binding
+                if new:
+                    grown = binding.copy()
+                    for variable, position in new:
+                        grown[variable] = fact[position]
+                if not checks or all(check(grown) for check in checks):
+                    extended.append(grown)
+        return extended
 
-    def _holds(self, literal: _Literal, binding: Binding) -> bool:
+    def _index(self, predicate: str, positions: tuple[int, ...]) -> dict[tuple[str, ...], list[tuple[str, ...]]]:
+        """The static facts of ``predicate`` by their arguments at ``positions`` (in :init order)."""
+        index = self.indexes.get((predicate, positions))
+        if index is None:
+            index = {}
+            for fact in self.static_index.get(predicate, ()):
+                index.setdefault(tuple([fact[i] for i in positions]), []).append(fact)
+            self.indexes[predicate, positions] = index
+        return index
+
+    def _plan(self, term: list[_Literal], params: tuple[TypedName, ...], start: Binding) -> _Plan:
+        key = (id(term), params, frozenset(start))
+        cached = self.plans.get(key)
+        if cached is not None and cached[0] is term:
+            return cached[1]
+        plan = self._make_plan(term, params, set(start))
+        self.plans[key] = (term, plan)
+        return plan
+
+    def _make_plan(self, term: list[_Literal], params: tuple[TypedName, ...], bound: set[str]) -> _Plan:
+        """The join of ``term`` when ``bound`` names the variables bound at its start (see :class:`_Plan`).
+
+        Positive atoms are joined in increasing number of facts; every other literal, and the type of
+        each parameter that a join step or the start binds, is checked as soon as its variables are bound.
+        """
+        equalities = tuple(lit.formula for lit in term if lit.positive and isinstance(lit.formula, Equals))
+        for equal in equalities:
+            left = not is_variable(equal.left) or equal.left in bound
+            right = not is_variable(equal.right) or equal.right in bound
+            if left != right:
+                bound.add(equal.right if left else equal.left)
+        positives = [lit.formula for lit in term if lit.positive and isinstance(lit.formula, AtomFormula)]
+        positives.sort(key=lambda atom: len(self.static_index.get(atom.predicate, ())))
+        pending = [self._literal_check(lit) for lit in term if not lit.positive or isinstance(lit.formula, Equals)]
+        joined = bound | {t for atom in positives for t in atom.terms if is_variable(t)}
+        unique = len({p.name for p in params}) == len(params)
+        for p in params:
+            if p.types != (OBJECT_TYPE,) and (p.name in joined or not unique):
+                pending.append(({p.name}, _member_check(p.name, frozenset(self.domain_of(p)))))
+        checks, pending = _ready(pending, bound)
+        steps: list[_Step] = []
+        for atom in positives:
+            positions, lookup, new, same = _step_shape(atom.terms, bound)
+            ready, pending = _ready(pending, bound)
+            steps.append(_Step(atom.predicate, positions, _getter(lookup), new, same, ready))
+        unbound = [p for p in params if p.name not in joined]
+        return _Plan(
+            equalities=equalities,
+            checks=checks,
+            steps=tuple(steps),
+            unbound=tuple(p.name for p in unbound),
+            domains=tuple(self.domain_of(p) for p in unbound),
+            last_checks=tuple(check for _, check in pending),
+        )
+
+    def _literal_check(self, literal: _Literal) -> tuple[set[str], _Check]:
         formula = literal.formula
         if isinstance(formula, Equals):
-            value = _subst(formula.left, binding) == _subst(formula.right, binding)
-        else:
-            value = (formula.predicate, tuple(_subst(t, binding) for t in formula.terms)) in self.static_facts
-        return value == literal.positive
+            variables = {t for t in (formula.left, formula.right) if is_variable(t)}
+            return variables, _equality_check(formula.left, formula.right, literal.positive)
+        variables = {t for t in formula.terms if is_variable(t)}
+        return variables, _fact_check(formula.predicate, formula.terms, self.static_facts, literal.positive)
 
     # ------------------------------------------------------------- simplify
-    def _simplify(self, formula: Formula, binding: Binding, schema: ActionSchema) -> bool | list[Atom]:
+    def _simplify(self, formula: Formula, binding: Binding, schema: ActionSchema) -> bool | list[_Key]:
         """Evaluate static parts; what remains must be a conjunction of positive fluent atoms."""
         if isinstance(formula, AtomFormula):
             terms = tuple(_subst(t, binding) for t in formula.terms)
             if formula.predicate in self.fluent:
-                return [Atom(formula.predicate, terms)]
+                return [(formula.predicate, terms)]
             return (formula.predicate, terms) in self.static_facts
         if isinstance(formula, Equals):
             return _subst(formula.left, binding) == _subst(formula.right, binding)
@@ -431,7 +763,7 @@ class _Grounder:
                 return not inner
             raise self._not_strips(schema, formula.line, "a negated fluent condition")
         if isinstance(formula, And):
-            atoms: list[Atom] = []
+            atoms: list[_Key] = []
             for part in formula.parts:
                 value = self._simplify(part, binding, schema)
                 if value is False:
@@ -440,7 +772,7 @@ class _Grounder:
                     atoms.extend(value)
             return atoms or True
         if isinstance(formula, Or):
-            remaining: list[list[Atom]] = []
+            remaining: list[list[_Key]] = []
             for part in formula.parts:
                 value = self._simplify(part, binding, schema)
                 if value is True:
@@ -461,49 +793,106 @@ class _Grounder:
         where = f" (line {line})" if line else ""
         return GroundingError(f"action {schema.name!r}{where}: {what} is not STRIPS once static facts are evaluated")
 
-    # --------------------------------------------------------------- effects
-    def _apply_effect(
+
+class _Forall:
+    """A compiled ``forall`` effect: its body applied under each binding of its variables that its
+    static guard (the condition of a ``when`` body) allows.
+
+    When no positive literal of the guard mentions an outer variable (RobotHow's ``Walk``:
+    ``(and (all_objects ?y) (not (= ?y ?x)))``), the guard is joined once, without the outer binding,
+    and the literals that mention outer variables are checked as the body is applied. Otherwise the
+    guard's bindings depend on the outer binding only through the variables the guard mentions, so
+    they are joined once per distinct value of those (unless these are every outer variable).
+    """
+
+    __slots__ = ("body", "grounder", "guard", "key_names", "memo", "names", "outer", "schema", "split", "terms")
+
+    def __init__(
         self,
-        effect: Effect,
-        binding: Binding,
+        grounder: _Grounder,
         schema: ActionSchema,
-        add: set[Atom],
-        delete: set[Atom],
-        costs: list[int],
+        variables: tuple[TypedName, ...],
+        guard: Formula | None,
+        body: tuple[_Op, ...],
+        outer: frozenset[str],
     ) -> None:
-        if isinstance(effect, AddEffect):
-            add.add(Atom(effect.atom.predicate, tuple(_subst(t, binding) for t in effect.atom.terms)))
-        elif isinstance(effect, DeleteEffect):
-            delete.add(Atom(effect.atom.predicate, tuple(_subst(t, binding) for t in effect.atom.terms)))
-        elif isinstance(effect, AndEffect):
-            for part in effect.parts:
-                self._apply_effect(part, binding, schema, add, delete, costs)
-        elif isinstance(effect, WhenEffect):
-            if not self._is_static(effect.condition):
-                raise self._not_strips(schema, effect.line, "a conditional effect on fluents")
-            if self._simplify(effect.condition, binding, schema) is True:
-                self._apply_effect(effect.body, binding, schema, add, delete, costs)
-        elif isinstance(effect, ForallEffect):
-            guard: list[Formula] = []
-            if isinstance(effect.body, WhenEffect) and self._is_static(effect.body.condition):
-                guard = _flatten_and(effect.body.condition)
-            for extended in self._bindings(guard, effect.variables, binding, schema):
-                self._apply_effect(effect.body, extended, schema, add, delete, costs)
-        else:
-            amount = effect.amount
-            if isinstance(amount, int):
-                costs.append(amount)
-            else:
-                key = (amount.predicate, tuple(_subst(t, binding) for t in amount.terms))
-                if key not in self.problem.numeric_init:
-                    raise _UndefinedCost(f"({' '.join((key[0], *key[1]))})")
-                value = self.problem.numeric_init[key]
-                if value < 0:
-                    raise GroundingError(
-                        f"action {schema.name!r}: cost ({' '.join((key[0], *key[1]))}) is {value}, "
-                        "and action costs must not be negative"
-                    )
-                costs.append(value)
+        self.grounder = grounder
+        self.schema = schema
+        self.guard = (variables, _flatten_and(guard) if guard is not None else [])
+        self.body = body
+        self.outer = outer
+        self.names = tuple(v.name for v in variables)
+        mentioned = set(self.names) | (_variables(guard) if guard is not None else set())
+        self.key_names = tuple(sorted(mentioned))
+        self.memo: dict[tuple[str | None, ...], list[_Segment]] | None = None if outer <= mentioned else {}
+        self.terms: list[list[_Literal]] | None = None
+        self.split: list[_Segment] | None = None
+
+    def segments(self, binding: Binding) -> list[_Segment]:
+        """The values of the variables under each binding the guard allows, extending ``binding``,
+        in runs whose values must also pass the run's checks."""
+        variables, parts = self.guard
+        terms = self.terms
+        if terms is None:
+            # First use: the guard's normal form (refused here when too large), then how to join it.
+            terms = self.terms = _dnf_checked(And(tuple(parts)), self.schema)
+            self.split = self._split(terms, variables)
+        if self.split is not None:
+            return self.split
+        memo = self.memo
+        key = tuple([binding.get(name) for name in self.key_names]) if memo is not None else ()
+        found = memo.get(key) if memo is not None else None
+        if found is None:
+            names, joined = self.names, self.grounder._bindings(terms, variables, binding)
+            found = [([tuple([full[n] for n in names]) for full in joined], ())]
+            if memo is not None:
+                memo[key] = found
+        return found
+
+    def _split(self, terms: list[list[_Literal]], variables: tuple[TypedName, ...]) -> list[_Segment] | None:
+        """Each term's bindings joined without the outer binding, with the checks of its literals that
+        mention outer variables; ``None`` when a positive literal mentions one (or a variable of the
+        forall hides an outer one), as a join step would then depend on the outer binding."""
+        if self.outer & set(self.names):
+            return None
+        inner_terms: list[list[_Literal]] = []
+        outer_checks: list[tuple[_Check, ...]] = []
+        for term in terms:
+            inner: list[_Literal] = []
+            checks: list[_Check] = []
+            for literal in term:
+                used, check = self.grounder._literal_check(literal)
+                if not used & self.outer:
+                    inner.append(literal)
+                elif literal.positive:
+                    return None
+                else:
+                    checks.append(check)
+            inner_terms.append(inner)
+            outer_checks.append(tuple(checks))
+        names = self.names
+        return [
+            ([tuple([full[n] for n in names]) for full in self.grounder._join(inner, variables, {})], checks)
+            for inner, checks in zip(inner_terms, outer_checks, strict=True)
+        ]
+
+    def __call__(self, binding: Binding, add: set[_Key], delete: set[_Key], costs: list[int]) -> None:
+        names, body = self.names, self.body
+        extended = binding.copy()
+        for values, checks in self.segments(binding):
+            self.grounder.tick(1 + len(values))
+            if len(names) == 1 and len(body) == 1:  # the usual case, made quicker
+                name, op = names[0], body[0]
+                for (value,) in values:
+                    extended[name] = value
+                    if not checks or all(check(extended) for check in checks):
+                        op(extended, add, delete, costs)
+                continue
+            for row in values:
+                extended.update(zip(names, row, strict=True))
+                if not checks or all(check(extended) for check in checks):
+                    for op in body:
+                        op(extended, add, delete, costs)
 
 
 # ======================================================================= helpers
@@ -535,6 +924,19 @@ def _flatten_and(formula: Formula) -> list[Formula]:
             out.extend(_flatten_and(part))
         return out
     return [formula]
+
+
+def _variables(formula: Formula) -> set[str]:
+    """The variables ``formula`` mentions."""
+    if isinstance(formula, AtomFormula):
+        return {t for t in formula.terms if is_variable(t)}
+    if isinstance(formula, Equals):
+        return {t for t in (formula.left, formula.right) if is_variable(t)}
+    if isinstance(formula, Not):
+        return _variables(formula.operand)
+    if isinstance(formula, And | Or):
+        return set().union(*(_variables(part) for part in formula.parts))
+    return _variables(formula.antecedent) | _variables(formula.consequent)
 
 
 def _dnf_size(formula: Formula, positive: bool = True) -> int:
@@ -582,20 +984,80 @@ def _subst(term: str, binding: Binding) -> str:
     return binding[term] if is_variable(term) else term
 
 
-def _unify(terms: tuple[str, ...], fact: tuple[str, ...], binding: Binding) -> Binding | None:
-    new: Binding | None = None
-    for term, value in zip(terms, fact, strict=True):
-        if is_variable(term):
-            bound = (new or binding).get(term)
-            if bound is None:
-                if new is None:
-                    new = dict(binding)
-                new[term] = value
-            elif bound != value:
-                return None
-        elif term != value:
-            return None
-    return new if new is not None else dict(binding)
+def _getter(terms: Iterable[str]) -> Callable[[Binding], tuple[str, ...]]:
+    """A function giving ``terms`` with their variables replaced by their values in a binding."""
+    template: _Template = tuple((is_variable(t), t) for t in terms)
+    if not template:
+        return lambda binding: ()
+    if len(template) == 1:
+        variable, name = template[0]
+        return (lambda binding: (binding[name],)) if variable else (lambda binding: (name,))
+    if len(template) == 2:
+        (first_variable, first), (second_variable, second) = template
+        if first_variable and second_variable:
+            return lambda binding: (binding[first], binding[second])
+        if second_variable:
+            return lambda binding: (first, binding[second])
+        if first_variable:
+            return lambda binding: (binding[first], second)
+    return lambda binding: tuple([binding[name] if variable else name for variable, name in template])
+
+
+def _atom_op(atom: AtomFormula, positive: bool, intern: Callable[[_Key, _Key], _Key]) -> _Op:
+    predicate, args = atom.predicate, _getter(atom.terms)
+    if positive:
+        return lambda binding, add, delete, costs: add.add(intern(key := (predicate, args(binding)), key))
+    return lambda binding, add, delete, costs: delete.add(intern(key := (predicate, args(binding)), key))
+
+
+def _fact_check(predicate: str, terms: tuple[str, ...], facts: set[_Key], positive: bool) -> _Check:
+    args = _getter(terms)
+    if positive:
+        return lambda binding: (predicate, args(binding)) in facts
+    return lambda binding: (predicate, args(binding)) not in facts
+
+
+def _equality_check(left: str, right: str, positive: bool) -> _Check:
+    first, second = _getter((left, right)), positive
+
+    def check(binding: Binding) -> bool:
+        a, b = first(binding)
+        return (a == b) == second
+
+    return check
+
+
+def _member_check(variable: str, members: frozenset[str]) -> _Check:
+    return lambda binding: binding[variable] in members
+
+
+def _ready(
+    pending: list[tuple[set[str], _Check]], bound: set[str]
+) -> tuple[tuple[_Check, ...], list[tuple[set[str], _Check]]]:
+    """The checks of ``pending`` whose variables are all ``bound``, and the others."""
+    ready = tuple(check for variables, check in pending if variables <= bound)
+    return ready, [(variables, check) for variables, check in pending if not variables <= bound]
+
+
+def _step_shape(
+    terms: tuple[str, ...], bound: set[str]
+) -> tuple[tuple[int, ...], tuple[str, ...], tuple[tuple[str, int], ...], tuple[tuple[int, int], ...]]:
+    """A join step over an atom's ``terms``: its bound positions and their terms, the variables it
+    binds (with their first position), the later positions of those; adds them to ``bound``."""
+    positions: list[int] = []
+    lookup: list[str] = []
+    first: dict[str, int] = {}
+    same: list[tuple[int, int]] = []
+    for position, term in enumerate(terms):
+        if not is_variable(term) or term in bound:
+            positions.append(position)
+            lookup.append(term)
+        elif term in first:
+            same.append((position, first[term]))
+        else:
+            first[term] = position
+    bound.update(first)
+    return tuple(positions), tuple(lookup), tuple(first.items()), tuple(same)
 
 
 def _bind_equal(binding: Binding, equal: Equals) -> Binding | None:
