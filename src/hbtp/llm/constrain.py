@@ -30,6 +30,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from hbtp.datasets.reply import OBJECTS, PREDICATES, format_reply
+from hbtp.llm.vocabulary import as_names
+from hbtp.logic.names import ActionNames
 from hbtp.logic.task import GroundTask
 
 #: The largest bounds of the three lists (the longest path of the shipped example pools has 17 actions).
@@ -77,11 +79,12 @@ class Constraint:
         return value
 
 
-def constraint_of(task: GroundTask, bounds: Bounds = Bounds()) -> Constraint:
-    """The constraint of ``task``'s replies with lists of at most ``bounds`` items.
+def constraint_of(source: GroundTask | ActionNames, bounds: Bounds = Bounds()) -> Constraint:
+    """The constraint of the replies for a task (or its action names) with lists of at most ``bounds`` items.
 
-    The rules of the names are built once per task (kept with the task); only the first line,
+    The rules of the names are built once per task (kept with its names); only the first line,
     which holds the bounds, changes from request to request."""
+    task = as_names(source)
     rules, action_pattern = task.derived(constraint_of, lambda: _names(task))
     predicates, objects = task.action_predicates, task.symbols
     root = (
@@ -147,12 +150,12 @@ class _Rules:
         return self.by_suffixes[tuples], self.regex[tuples]
 
 
-def _names(task: GroundTask) -> tuple[str, str]:
+def _names(task: ActionNames) -> tuple[str, str]:
     """The GBNF rules of ``action``, ``predicate`` and ``object``, and the regex of an action name."""
     rules = _Rules(task.categories)
     objects_of: dict[str, set[tuple[str, ...]]] = {}
     for action in task.actions:
-        objects_of.setdefault(action.predicate, set()).add(action.objects)
+        objects_of.setdefault(action.predicate, set()).add(action.args)
     grammar, patterns = [], []
     for predicate in task.action_predicates:
         tail, tail_regex = rules.suffixes(frozenset(objects_of[predicate]))
@@ -171,7 +174,7 @@ def _at_most(bound: int, names: Iterable[str]) -> int:
     return max(1, min(bound, len(set(names))))
 
 
-def _schema(task: GroundTask, action_pattern: str, bounds: Bounds) -> dict[str, Any]:
+def _schema(task: ActionNames, action_pattern: str, bounds: Bounds) -> dict[str, Any]:
     def array(items: dict[str, Any], bound: int) -> dict[str, Any]:
         return {"type": "array", "items": items, "minItems": 1, "maxItems": bound}
 

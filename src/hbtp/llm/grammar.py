@@ -13,8 +13,9 @@ from dataclasses import dataclass
 from hbtp.datasets.reply import TITLES
 from hbtp.errors import InputError
 from hbtp.llm.parse import ParsedReply, underscored
-from hbtp.llm.vocabulary import vocabulary_of
+from hbtp.llm.vocabulary import as_names, vocabulary_of
 from hbtp.logic.atoms import Atom, parse_atom
+from hbtp.logic.names import ActionNames
 from hbtp.logic.task import GroundTask
 from hbtp.planning.hints import Hints
 
@@ -76,14 +77,14 @@ class _Matcher:
         return close[0] if len(close) == 1 else None
 
 
-def _matchers(task: GroundTask) -> tuple[_Matcher, _Matcher]:
-    """The task's predicate and object matchers (kept with the task: their memos grow as names are met)."""
+def _matchers(names: ActionNames) -> tuple[_Matcher, _Matcher]:
+    """The predicate and object matchers (kept with the names: their memos grow as names are met)."""
 
     def build() -> tuple[_Matcher, _Matcher]:
-        vocabulary = vocabulary_of(task)
+        vocabulary = vocabulary_of(names)
         return _Matcher(vocabulary.predicate_names), _Matcher(vocabulary.object_names)
 
-    return task.derived(_matchers, build)
+    return names.derived(_matchers, build)
 
 
 def _match_action(name: str, predicates: _Matcher, objects: _Matcher, action_names: frozenset[str]) -> Atom | None:
@@ -99,15 +100,16 @@ def _match_action(name: str, predicates: _Matcher, objects: _Matcher, action_nam
     return candidate if candidate.underscored in action_names else None
 
 
-def check_reply(parsed: ParsedReply, task: GroundTask) -> GrammarCheck:
-    """Check every name of a parsed reply against ``task``.
+def check_reply(parsed: ParsedReply, task: GroundTask | ActionNames) -> GrammarCheck:
+    """Check every name of a parsed reply against a task (or its action names).
 
     An action name is repaired part by part: its predicate and each object must match on their own
     (exactly, up to case, or as an unambiguous close match) and together name a grounded action, so
     a repair never swaps the verb or the object (``Put_apple`` is not taken for ``Cut_apple``).
     """
-    predicates, objects = _matchers(task)
-    action_names = vocabulary_of(task).action_names
+    names = as_names(task)
+    predicates, objects = _matchers(names)
+    action_names = vocabulary_of(names).action_names
     repairs: list[str] = []
     unknown: list[str] = []
 

@@ -26,8 +26,9 @@ from hbtp.datasets.records import Record
 from hbtp.errors import InputError
 from hbtp.llm.backend import Message, PromptStyle, Request
 from hbtp.llm.constrain import Bounds, Constraint, constraint_of
-from hbtp.llm.vocabulary import vocabulary_of
+from hbtp.llm.vocabulary import as_names, vocabulary_of
 from hbtp.logic.atoms import parse_conjunction
+from hbtp.logic.names import ActionNames
 from hbtp.logic.task import GroundTask
 
 RULES = """[System]
@@ -151,7 +152,7 @@ def _normal_goal(goal: str) -> str:
     return " & ".join(part.strip() for part in goal.split("&"))
 
 
-def scenario_text(task: GroundTask, include_objects: bool = True) -> str:
+def scenario_text(task: GroundTask | ActionNames, include_objects: bool = True) -> str:
     vocabulary = vocabulary_of(task)
     lines = ["[Condition Predicates]", ", ".join(vocabulary.condition_predicates), "", "[Action Predicates]"]
     lines.append(", ".join(vocabulary.action_predicates))
@@ -162,7 +163,7 @@ def scenario_text(task: GroundTask, include_objects: bool = True) -> str:
 
 
 def build_request(
-    task: GroundTask,
+    task: GroundTask | ActionNames,
     goal: str,
     pool: Sequence[Record],
     options: PromptOptions = PromptOptions(),
@@ -196,7 +197,9 @@ def build_request(
     )
 
 
-def _constraint(task: GroundTask, examples: Sequence[Record], options: PromptOptions) -> Constraint | None:
+def _constraint(
+    task: GroundTask | ActionNames, examples: Sequence[Record], options: PromptOptions
+) -> Constraint | None:
     """The reply's constraint, its lists bounded by the longest of the ``examples`` shown."""
     if not options.constrain:
         return None
@@ -210,12 +213,13 @@ def _max_tokens(options: PromptOptions, constraint: Constraint | None) -> int:
     return min(options.max_tokens, CONSTRAINED_MAX_TOKENS if constraint else COMPLETION_MAX_TOKENS)
 
 
-def _format_examples(task: GroundTask) -> list[str]:
+def _format_examples(task: GroundTask | ActionNames) -> list[str]:
     """Two action names of the scenario itself (the fewest and the most arguments) for the rules."""
-    if not task.actions:
+    actions = as_names(task).actions
+    if not actions:
         return []
-    by_arity = sorted(task.actions, key=lambda a: (len(a.objects), a.index))
-    return list(dict.fromkeys((by_arity[0].signature.underscored, by_arity[-1].signature.underscored)))
+    by_arity = sorted(range(len(actions)), key=lambda i: (len(actions[i].args), i))
+    return list(dict.fromkeys((actions[by_arity[0]].underscored, actions[by_arity[-1]].underscored)))
 
 
 def _avoid_text(avoid: Iterable[str]) -> str:

@@ -1,4 +1,5 @@
-"""The scenario's vocabulary as the prompt shows it, derived from the grounded task.
+"""The scenario's vocabulary as the prompt shows it, derived from its action names (a grounded task's or
+a world's not yet grounded, :class:`~hbtp.logic.names.ActionNames`).
 
 Condition predicates with argument categories (``IsOn_<GRABBABLE>_<SURFACE>``), action predicates
 with categories and costs (``Walk_<ALL_OBJECTS> (15)``), and the categories' members. A category is
@@ -10,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from hbtp.logic.names import ActionNames, names_of
 from hbtp.logic.task import GroundTask
 
 ANY = "ANY"
@@ -39,42 +41,42 @@ def _describe(values: set[str], categories: dict[str, tuple[str, ...]], used: di
     return f"<{label}>"
 
 
-def vocabulary_of(task: GroundTask) -> Vocabulary:
-    """The prompt vocabulary of ``task`` (built once, kept with the task)."""
-    return task.derived(vocabulary_of, lambda: _vocabulary(task))
+def as_names(source: GroundTask | ActionNames) -> ActionNames:
+    """The action names of a task (or the names themselves)."""
+    return source if isinstance(source, ActionNames) else names_of(source)
 
 
-def _vocabulary(task: GroundTask) -> Vocabulary:
-    categories = task.categories
+def vocabulary_of(source: GroundTask | ActionNames) -> Vocabulary:
+    """The prompt vocabulary of a task or of action names (built once, kept with the names)."""
+    names = as_names(source)
+    return names.derived(vocabulary_of, lambda: _vocabulary(names))
+
+
+def _vocabulary(names: ActionNames) -> Vocabulary:
+    categories = dict(names.categories)
     used: dict[str, tuple[str, ...]] = {}
-    positions: dict[str, list[set[str]]] = {}
-    for atom in task.atoms:
-        slots = positions.setdefault(atom.predicate, [set() for _ in atom.args])
-        for slot, value in zip(slots, atom.args, strict=True):
-            slot.add(value)
     conditions = []
-    for predicate in sorted(task.predicates):
-        slots = positions.get(predicate, [])
-        parts = [_describe(values, categories, used) for values in slots if values]
+    for predicate, values_at in names.condition_slots.items():
+        parts = [_describe(set(values), categories, used) for values in values_at if values]
         conditions.append("_".join([predicate, *parts]))
     action_slots: dict[str, list[set[str]]] = {}
     costs: dict[str, set[int]] = {}
-    for action in task.actions:
-        slots = action_slots.setdefault(action.predicate, [set() for _ in action.objects])
-        for slot, value in zip(slots, action.objects, strict=True):
+    for action, cost in zip(names.actions, names.costs, strict=True):
+        slots = action_slots.setdefault(action.predicate, [set() for _ in action.args])
+        for slot, value in zip(slots, action.args, strict=True):
             slot.add(value)
-        costs.setdefault(action.predicate, set()).add(action.cost)
+        costs.setdefault(action.predicate, set()).add(cost)
     actions = []
-    for predicate in task.action_predicates:
+    for predicate in names.action_predicates:
         parts = [_describe(values, categories, used) for values in action_slots[predicate]]
         low, high = min(costs[predicate]), max(costs[predicate])
-        cost = f"{low}" if low == high else f"{low}-{high}"
-        actions.append(f"{'_'.join([predicate, *parts])} ({cost})")
+        span = f"{low}" if low == high else f"{low}-{high}"
+        actions.append(f"{'_'.join([predicate, *parts])} ({span})")
     return Vocabulary(
         condition_predicates=tuple(conditions),
         action_predicates=tuple(actions),
         categories=tuple(sorted(used.items())),
-        action_names=frozenset(a.signature.underscored for a in task.actions),
-        predicate_names=frozenset(task.action_predicates),
-        object_names=task.symbols,
+        action_names=names.underscored,
+        predicate_names=frozenset(names.action_predicates),
+        object_names=names.symbols,
     )
