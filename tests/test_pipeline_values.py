@@ -20,6 +20,7 @@ from hbtp.llm.backends.replay import RecordingBackend, ReplayBackend
 from hbtp.llm.parse import hints_from_record, hints_reply, parse_reply
 from hbtp.llm.prompt import COMPLETION_MAX_TOKENS, PromptOptions
 from hbtp.llm.vocabulary import vocabulary_of
+from hbtp.logic.names import names_of
 from hbtp.pipeline import LoopOptions, Outcome, RoundStatus, run_hbtp
 from hbtp.pipeline.results import Ending
 from hbtp.planning import Hints, resolve_hints
@@ -128,15 +129,15 @@ def test_hints_from_a_plan(robowaiter: Scenario) -> None:
 
 def test_the_space_of_several_rounds_only_grows(robowaiter: Scenario) -> None:
     task = robowaiter.task
-    first = resolve_hints(task, Hints(("Make(Coffee)",), (), ()))
-    second = resolve_hints(task, Hints(("MoveTo(Bar)",), ("PickUp",), ("Water",)))
-    grown = first.grown_by(task, second)
-    assert grown.path == second.path
-    assert grown.predicates == {"Make", "MoveTo", "PickUp"}
-    assert grown.objects == {"Coffee", "Bar", "Water"}
-    assert set(pruned_action_space(task, first)) | set(pruned_action_space(task, second)) <= set(
-        pruned_action_space(task, grown)
-    )
+    names = names_of(task)
+    first = Hints().grown_by(Hints(("Make(Coffee)",), (), ()), names)
+    second = Hints(("MoveTo(Bar)", "Fly(Moon)"), ("PickUp", "Teleport"), ("Water", "Moon"))
+    grown = first.grown_by(second, names)
+    assert grown.path == ("MoveTo(Bar)",)  # names the world does not know are left out
+    assert set(grown.predicates) == {"Make", "MoveTo", "PickUp"}
+    assert set(grown.objects) == {"Coffee", "Bar", "Water"}
+    spaces = [pruned_action_space(task, resolve_hints(task, h)) for h in (first, second, grown)]
+    assert set(spaces[0]) | set(spaces[1]) <= set(spaces[2])
 
 
 # ---------------------------------------------------------------------------------- noise and caches

@@ -49,8 +49,9 @@ from hbtp.datasets import load_dataset, validate_records
 from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
 from hbtp.domains.cache import cache_dir
-from hbtp.domains.scale import scaled_scenario
-from hbtp.domains.scenarios import Scenario
+from hbtp.domains.pruned import PrunedWorld
+from hbtp.domains.scale import clone_objects, scaled_scenario
+from hbtp.domains.scenarios import Scenario, ScenarioOptions
 from hbtp.errors import InputError
 from hbtp.llm.backend import Backend
 from hbtp.llm.backends.registry import BackendOptions
@@ -68,6 +69,8 @@ LLM_FREE = ("obtea+lm", "hbtp-s+lm")
 #: Backends whose answers come from a planner, not a model: their time is not model time.
 ORACLES = ("oracle", "noisy-oracle")
 KEY = ("axis", "cell", "task", "config")
+#: The prefix of a configuration that prunes the world before grounding it.
+PRUNED = "hbtp-pruned:"
 
 
 @dataclass(frozen=True)
@@ -78,6 +81,9 @@ class PayoffConfig:
     #: Generated RobotHow tasks (:mod:`hbtp.planning.generate`) of these levels, seed 0.
     levels: tuple[str, ...] = ("easy", "medium", "hard")
     tasks: int = 5
+    #: Also run each backend with the world pruned before it is grounded (``hbtp-pruned:<backend>``:
+    #: the loop grounds only the hints' space, and the whole world only for its fallback).
+    pruned: bool = False
     #: Seconds for an LLM-free search, and for the loop's fallback.
     time_limit: float = 60.0
     loop: LoopOptions = field(default_factory=LoopOptions)
@@ -95,7 +101,12 @@ class PayoffConfig:
 
     @property
     def configs(self) -> tuple[str, ...]:
-        return (*LLM_FREE, *(f"hbtp:{b}" for b in self.backends))
+        pruned = tuple(f"{PRUNED}{b}" for b in self.backends) if self.pruned else ()
+        return (*LLM_FREE, *(f"hbtp:{b}" for b in self.backends), *pruned)
+
+
+def _guided(config: str) -> bool:
+    return config not in LLM_FREE
 
 
 @dataclass(frozen=True)
@@ -129,6 +140,20 @@ def _world(scenario: str, scale: float) -> tuple[Scenario, float, str]:
     started = time.perf_counter()
     loaded = scaled_scenario(scenario, scale)
     return loaded, time.perf_counter() - started, "scaled (built)"
+
+
+@functools.lru_cache(maxsize=1)
+def _names_of_world(scenario: str, scale: float) -> tuple[PrunedWorld, float]:
+    """The world pruned before grounding (its action names listed, nothing grounded) and the seconds
+    that took: the shipped PDDL read, grown ``scale`` times."""
+    base = load_scenario(scenario)
+    started = time.perf_counter()
+    options, parsed = ScenarioOptions.shipped(scenario), base.pddl
+    if not math.isclose(scale, 1.0):
+        options = replace(options, name=f"{scenario}-x{scale:g}")
+        parsed = replace(parsed, problem=clone_objects(parsed.problem, scale))
+    world = PrunedWorld.load(base.domain_file, base.problem_file, options, parsed=parsed)
+    return world, time.perf_counter() - started
 
 
 @functools.lru_cache(maxsize=8)
@@ -177,9 +202,18 @@ def _plan(run: PayoffRun, scenario: Scenario, goal: Goal) -> tuple[PlanResult, d
         limits = Limits(time_s=run.time_limit)
         result = plan(scenario.task, goal, planner, mutexes=scenario.mutexes, heuristic="lm", limits=limits)
         return result, {"planning_s": time.perf_counter() - started, "model_s": 0.0}
-    backend, setup = _backend(run.recipe, scenario)
+    result, fields, _ = _guide(run, scenario, scenario, goal)
+    return result, fields
+
+
+def _guide(
+    run: PayoffRun, world: Scenario | PrunedWorld, backend_world: Scenario, goal: Goal | str
+) -> tuple[PlanResult, dict[str, Any], Scenario]:
+    """The HBTP loop in ``world``: the result, its time and LLM fields, and the scenario of its tree."""
+    assert run.recipe is not None
+    backend, setup = _backend(run.recipe, backend_world)
     started = time.perf_counter()
-    loop = run_hbtp(scenario, goal, backend, _pool(run.world.scenario), run.loop)
+    loop = run_hbtp(world, goal, backend, _pool(run.world.scenario), run.loop)
     wall = time.perf_counter() - started
     model = 0.0 if run.recipe.llm in ORACLES else loop.llm_seconds
     fields = {
@@ -190,22 +224,45 @@ def _plan(run: PayoffRun, scenario: Scenario, goal: Goal) -> tuple[PlanResult, d
         "outcome": loop.outcome.label,
         "rounds": len(loop.rounds),
     }
-    return loop.result, fields
+    return loop.result, fields, loop.scenario
+
+
+def _run_pruned(run: PayoffRun) -> tuple[PlanResult, dict[str, Any], Scenario, Goal, int]:
+    """The loop in the world pruned before grounding, with none of an earlier task's groundings kept."""
+    listed, load = _names_of_world(run.world.scenario, run.world.scale)
+    world = replace(listed, _whole=None, _parts={})
+    assert run.recipe is not None
+    # An oracle answers from an optimal plan in the whole world (its time is not counted); a model
+    # needs no world at all.
+    oracle = run.recipe.llm in ORACLES
+    if not oracle:  # the grounded world of the other configurations would only take memory here
+        _world.cache_clear()
+    backend_world = _world(run.world.scenario, run.world.scale)[0] if oracle else world.part(frozenset(), frozenset())
+    result, fields, scenario = _guide(run, world, backend_world, run.record.goal)
+    fields.update(load_s=load, grounded_whole=world.grounded)
+    return result, fields, scenario, scenario.task.resolve_goal(run.record.goal), len(world.names.actions)
 
 
 def run_one(run: PayoffRun) -> dict[str, Any]:
     """One task, one configuration: every phase's seconds and whether the tree is verified."""
-    scenario, load, load_kind = _world(run.world.scenario, run.world.scale)
-    goal = scenario.task.resolve_goal(run.record.goal)
-    result, fields = _plan(run, scenario, goal)
+    if run.config.startswith(PRUNED):
+        result, fields, scenario, goal, actions = _run_pruned(run)
+        load_kind = "names listed, pruned before grounding"
+    else:
+        scenario, load, load_kind = _world(run.world.scenario, run.world.scale)
+        goal = scenario.task.resolve_goal(run.record.goal)
+        result, fields = _plan(run, scenario, goal)
+        fields["load_s"] = load
+        actions = len(scenario.task.actions)
+    load = fields["load_s"]
     started = time.perf_counter()
     verified = verified_tree(result, scenario.task, goal)
-    fields.update(load_s=load, verify_s=time.perf_counter() - started)
+    fields["verify_s"] = time.perf_counter() - started
     release_search_memory()
     solve = fields["model_s"] + fields["planning_s"] + fields["verify_s"]
     times = {name: round(value, 6) for name, value in fields.items() if name.endswith("_s")}
     return {
-        **_known(run.world, run.record, run.config, len(scenario.task.actions)),
+        **_known(run.world, run.record, run.config, actions),
         **fields,
         **times,
         "load_kind": load_kind,
@@ -285,7 +342,7 @@ def run_payoff(
     work = [
         Work(
             (world.axis, world.cell, record.id, name),
-            PayoffRun(world, record, name, recipes.get(name.removeprefix("hbtp:")), loop, config.time_limit),
+            PayoffRun(world, record, name, recipes.get(name.partition(":")[2]), loop, config.time_limit),
             _known(world, record, name),
             stage=f"{world.cell} {name}",
         )
@@ -366,7 +423,7 @@ def _cell(rows: Sequence[dict[str, Any]], config: PayoffConfig) -> dict[str, Any
         "tasks": len(tasks),
         "median_p_star": median([r["p_star"] for r in rows]),
         "configs": configs,
-        "against": {name: _against(name, tasks) for name in config.configs if name.startswith("hbtp:")},
+        "against": {name: _against(name, tasks) for name in config.configs if _guided(name)},
     }
 
 
@@ -396,7 +453,7 @@ def summarise(rows: Sequence[dict[str, Any]], config: PayoffConfig) -> dict[str,
         mine = [r for r in rows if r["axis"] == world.axis and r["cell"] == world.cell]
         if mine:
             cells.append(_cell(mine, config))
-    guided = [name for name in config.configs if name.startswith("hbtp:")]
+    guided = [name for name in config.configs if _guided(name)]
     return {
         "config": {
             "backends": list(config.backends),
@@ -407,6 +464,7 @@ def summarise(rows: Sequence[dict[str, Any]], config: PayoffConfig) -> dict[str,
             "time_limit": config.time_limit,
             "round_time_limit": config.loop.round_time_limit,
             "feedback_rounds": config.loop.feedback_rounds,
+            "pruned": config.pruned,
         },
         "runs": len(rows),
         "unverified": sum(not r.get("verified") for r in rows),

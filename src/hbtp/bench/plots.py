@@ -254,8 +254,7 @@ def plot_payoff(summary: dict[str, Any], path: Path) -> bool:
     if plt is None:
         return False
     cells = summary["cells"]
-    order = ["obtea+lm", "hbtp-s+lm", *(f"hbtp:{b}" for b in summary["config"]["backends"]), "best LLM-free"]
-    names = [name for name in order if any(name in c["configs"] for c in cells)]
+    names = list(dict.fromkeys(name for c in cells for name in c["configs"]))
 
     def series(axis: str, measure: str) -> list[Series]:
         chosen = [c for c in cells if c["axis"] == axis]

@@ -379,20 +379,32 @@ payoff_axes_options = option_group(
 
 @bench.command("payoff")
 @click.option("--llm", default="oracle,noisy-oracle", show_default=True, help="Comma-separated LLM backends.")
+@click.option(
+    "--pruned",
+    is_flag=True,
+    help="Also run each backend in the world pruned before grounding (hbtp-pruned:BACKEND: only the "
+    "hints' space is grounded, the whole world only for the fallback).",
+)
 @payoff_axes_options
 @backend_options
 @table2_loop_options
 @out_dir_option
 @execution_options
 def payoff(
-    llm: str, axes: PayoffConfig, backend: BackendOptions, loop: LoopOptions, out_dir: str, execution: Execution
+    llm: str,
+    pruned: bool,
+    axes: PayoffConfig,
+    backend: BackendOptions,
+    loop: LoopOptions,
+    out_dir: str,
+    execution: Execution,
 ) -> int:
     """When does the LLM pay? Time to a verified tree, LLM-guided HBTP against the best LLM-free planner."""
     backends = tuple(part.strip() for part in llm.split(",") if part.strip())
     unknown = [b for b in backends if b not in PAYOFF_LLMS and not b.startswith("replay:")]
     if unknown or not backends:
         raise click.BadParameter(f"unknown backend(s) {', '.join(unknown) or '(none)'}", param_hint="--llm")
-    config = replace(axes, backends=backends, loop=loop)
+    config = replace(axes, backends=backends, loop=loop, pruned=pruned)
     summary = run_payoff(config, backend, Path(out_dir), execution)
     click.echo(f"{'cell':15} {'|A|':>7} {'configuration':20} {'verified':>8} {'total s':>8} {'solve s':>8}"
                f" {'ratio':>6}")  # fmt: skip

@@ -16,6 +16,7 @@ import click
 from hbtp.bench.runner import EXECUTORS, Execution, ExecutorName
 from hbtp.deadline import Deadline
 from hbtp.domains import Scenario, load_pddl_scenario, load_scenario, scenario_names
+from hbtp.domains.pruned import PrunedWorld
 from hbtp.domains.scenarios import ScenarioOptions, read_mutex_file
 from hbtp.errors import InputError
 from hbtp.files import write_all_atomically
@@ -53,15 +54,31 @@ class ScenarioSource:
                 raise InputError("--objects, --keep-fluent and --mutex go with --pddl")
             return load_scenario(scenario)
         if pddl:
-            declared = read_mutex_file(self.mutex_file) if self.mutex_file else {"groups": [], "nogoods": []}
-            options = ScenarioOptions(
-                keep_fluent=self.keep_fluent,
-                objects=self.object_categories,
-                mutex_groups=declared["groups"],
-                mutex_nogoods=declared["nogoods"],
-            )
-            return load_pddl_scenario(pddl[0], pddl[1], options, deadline=deadline)
+            return load_pddl_scenario(pddl[0], pddl[1], self._pddl_options(), deadline=deadline)
         raise InputError(f"choose a scenario with --scenario ({', '.join(scenario_names())}) or --pddl DOMAIN PROBLEM")
+
+    def load_pruned(self, *, deadline: Deadline | None = None) -> PrunedWorld:
+        """The world, its action names listed and nothing grounded (see :mod:`hbtp.domains.pruned`)."""
+        if self.scenario and self.pddl:
+            raise InputError("give either --scenario or --pddl, not both")
+        if self.scenario:
+            if self.object_categories or self.keep_fluent or self.mutex_file:
+                raise InputError("--objects, --keep-fluent and --mutex go with --pddl")
+            shipped = load_scenario(self.scenario)
+            options = ScenarioOptions.shipped(self.scenario)
+            return PrunedWorld.load(shipped.domain_file, shipped.problem_file, options, deadline=deadline)
+        if self.pddl:
+            return PrunedWorld.load(self.pddl[0], self.pddl[1], self._pddl_options(), deadline=deadline)
+        raise InputError(f"choose a scenario with --scenario ({', '.join(scenario_names())}) or --pddl DOMAIN PROBLEM")
+
+    def _pddl_options(self) -> ScenarioOptions:
+        declared = read_mutex_file(self.mutex_file) if self.mutex_file else {"groups": [], "nogoods": []}
+        return ScenarioOptions(
+            keep_fluent=self.keep_fluent,
+            objects=self.object_categories,
+            mutex_groups=declared["groups"],
+            mutex_nogoods=declared["nogoods"],
+        )
 
 
 def option_group(name: str, build: Callable[..., Any], *options: Callable[[Any], Any]) -> Callable[[F], F]:

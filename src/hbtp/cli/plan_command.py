@@ -6,7 +6,7 @@ import logging
 import sys
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import cast
+from typing import Any, cast
 
 import click
 
@@ -145,6 +145,10 @@ output_options = option_group(
 )
 
 
+#: Backends whose answers come from an optimal plan of the whole world.
+ORACLE_SPECS = ("oracle", "noisy-oracle")
+
+
 @dataclass(frozen=True)
 class LlmRequest:
     """The LLM loop's options; ``llm_spec`` ``None``: no LLM (plan once, with ``--hints``)."""
@@ -161,6 +165,15 @@ class LlmRequest:
     seed: int
     record: str | None
     auto_probe: float
+    grounding: str | None
+
+    def pruned(self, source: ScenarioSource) -> bool:
+        """Whether the loop prunes the world before grounding it: ``--grounding``, by default for a
+        --pddl world with a model backend (the oracles plan in the whole world anyway)."""
+        if self.grounding is not None:
+            return self.grounding == "pruned"
+        spec = self.llm_spec or ""
+        return source.pddl is not None and spec not in ORACLE_SPECS and auto_backend(spec) is None
 
     def loop_options(self, search: SearchRequest, progress: Progress | None = None) -> LoopOptions:
         return LoopOptions(
@@ -207,6 +220,13 @@ llm_options = option_group(
     ),
     click.option("--record", type=click.Path(dir_okay=False), help="Record every LLM exchange to this JSONL file."),
     click.option(
+        "--grounding",
+        type=click.Choice(["full", "pruned"]),
+        help="With --llm: ground the whole world first (full), or only the space the LLM's hints name, "
+        "the whole world only if the fallback needs it (pruned). Default: pruned for --pddl with a model "
+        "backend (local, openai, replay), else full.",
+    ),
+    click.option(
         "--auto-probe",
         type=click.FloatRange(min=0, min_open=True, max=1e9),
         default=DEFAULT_PROBE_SECONDS,
@@ -245,12 +265,14 @@ def run_plan(request: PlanRequest) -> int:
     search = request.search
     # One deadline for the whole command: loading, grounding, heuristic set-up and every search.
     limits = search.limits().starting_now()
+    spec = request.llm.llm_spec
+    if spec is not None and request.llm.pruned(request.source):
+        return _run_pruned(spec, request, limits)
     loaded = request.source.load(deadline=limits.deadline)
     goal_source = read_goal(request.goal) if request.goal is not None else loaded.problem_goal()
     goal = loaded.task.resolve_goal(goal_source)
     check_alpha(search.alpha)
     report = _Report(loaded, goal, request)
-    spec = request.llm.llm_spec
     if spec is not None and auto_backend(spec) is not None:
         auto = _run_auto(spec, request, loaded, goal, limits)
         return report.finish(auto.result, "llm" if auto.asked_llm else "none", auto.loop, auto)
@@ -286,6 +308,43 @@ def _run_llm(spec: str, request: PlanRequest, loaded: Scenario, goal: Goal) -> L
         return run_hbtp(loaded, goal, llm, pool, options.loop_options(request.search, progress))
     finally:
         llm.close()
+
+
+def _run_pruned(spec: str, request: PlanRequest, limits: Limits) -> int:
+    """The HBTP loop in a world pruned before grounding: its action names listed, each round's space
+    grounded alone, the whole world only for the fallback; the tree belongs to the part it came from."""
+    if auto_backend(spec) is not None:
+        raise InputError("--grounding pruned does not go with --llm auto (its probe plans in the whole world)")
+    _check_llm(request)
+    world = request.source.load_pruned(deadline=limits.deadline)
+    empty = world.part(frozenset(), frozenset())
+    goal_source = read_goal(request.goal) if request.goal is not None else empty.problem_goal()
+    goal = empty.task.resolve_goal(goal_source)
+    check_alpha(request.search.alpha)
+    options = request.llm
+    progress = _progress(request.outputs.as_json)
+    # An oracle answers from an optimal plan of a whole world of its own (the loop's stays pruned);
+    # a model needs no world at all.
+    oracle = spec.split(":")[0] in ORACLE_SPECS
+    answering = request.source.load(deadline=limits.deadline) if oracle else empty
+    llm = _backend(spec, request, answering, progress)
+    try:
+        pool = example_pool(world, options.examples_from)
+        loop_options = options.loop_options(request.search, progress)
+        if limits.deadline is not None:  # -t counts from the start of the command (loading included)
+            loop_options = replace(loop_options, time_limit=max(limits.deadline.remaining(), 1e-9))
+        loop = run_hbtp(world, goal, llm, pool, loop_options)
+    finally:
+        llm.close()
+    grounding = {
+        "kind": "pruned",
+        "actions": len(world.names.actions),
+        "listed_s": round(world.load_seconds, 6),
+        "grounded_actions": len(loop.scenario.task.actions),
+        "whole_grounded": world.grounded,
+    }
+    report = _Report(loop.scenario, loop.scenario.task.resolve_goal(goal.atoms), request, grounding)
+    return report.finish(loop.result, "llm", loop)
 
 
 def _run_auto(spec: str, request: PlanRequest, loaded: Scenario, goal: Goal, limits: Limits) -> AutoResult:
@@ -356,6 +415,8 @@ class _Report:
     loaded: Scenario
     goal: Goal
     request: PlanRequest
+    #: How a world pruned before grounding was grounded (``None``: grounded whole first).
+    grounding: dict[str, Any] | None = None
 
     def finish(
         self, result: PlanResult, hints_label: str, loop: LoopResult | None, auto: AutoResult | None = None
@@ -426,10 +487,14 @@ class _Report:
             record["llm"] = loop.to_dict()
         if auto is not None:
             record["auto"] = auto.to_dict()
+        if self.grounding is not None:
+            record["grounding"] = self.grounding
         echo_json(record)
 
     def _print_text(self, result: PlanResult, tree: Node | None, loop: LoopResult | None) -> None:
         task = self.loaded.task
+        if self.grounding is not None:
+            click.echo(_grounding_summary(self.grounding))
         if loop is not None:
             click.echo(_loop_summary(loop))
         stats = result.stats
@@ -442,6 +507,18 @@ class _Report:
             click.echo("executes: " + (" -> ".join(task.actions[i].name for i in result.executed) or "(nothing)"))
         if tree is not None:
             click.echo(render_text(tree, task, max_children=self.request.outputs.max_branches))
+
+
+def _grounding_summary(grounding: dict[str, Any]) -> str:
+    """How a world pruned before grounding was grounded."""
+    if grounding["whole_grounded"]:
+        whole = "the whole world was grounded (for the fallback or the demonstrations)"
+    else:
+        whole = "the whole world was not grounded"
+    return (
+        f"grounding: pruned: the tree's space has {grounding['grounded_actions']} of {grounding['actions']} "
+        f"actions (names listed in {grounding['listed_s']:.2f} s); {whole}"
+    )
 
 
 def _auto_summary(auto: AutoResult) -> str:

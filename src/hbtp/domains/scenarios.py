@@ -20,7 +20,7 @@ from hbtp.collector import collector_paused
 from hbtp.deadline import Deadline, check_deadline
 from hbtp.domains import cache
 from hbtp.domains.cache import cache_dir
-from hbtp.domains.grounding import ground
+from hbtp.domains.grounding import ActionFilter, ground
 from hbtp.domains.lifted import And, AtomFormula, Domain, Formula, Problem
 from hbtp.domains.mutex import Mutexes, infer_mutexes
 from hbtp.domains.pddl_reader import read_domain_file, read_problem_file
@@ -231,9 +231,11 @@ def load_pddl_scenario(
     *,
     parsed: Pddl | None = None,
     deadline: Deadline | None = None,
+    only: ActionFilter | None = None,
 ) -> Scenario:
     """Load a scenario from a user's PDDL domain and problem files (``parsed``, when given, is their
-    content already read, or changed: e.g. a generated larger problem).
+    content already read, or changed: e.g. a generated larger problem). With ``only``, the scenario
+    has only the ground actions it accepts (see :func:`hbtp.domains.grounding.ground`).
 
     Grounding is bounded by ``options.max_ground_actions`` (default ``$HBTP_MAX_GROUND_ACTIONS`` or
     1,000,000); past ``deadline``, :class:`~hbtp.deadline.TimeLimitReached` names the phase that was running.
@@ -254,6 +256,7 @@ def load_pddl_scenario(
             max_ground_actions=options.max_ground_actions,
             deadline=deadline,
             reachable_only=options.reachable_only,
+            only=only,
         )
         check_deadline(deadline, "grounding")
         mutexes = infer_mutexes(task, options.mutex_groups, options.mutex_nogoods, deadline)

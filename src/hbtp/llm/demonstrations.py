@@ -5,8 +5,11 @@ Every ``--pddl`` domain lacks a few-shot example pool. :func:`generated_pool` ma
 OBTEA with the landmark heuristic) and caches it in the hbtp cache folder
 (:func:`hbtp.domains.cache.cache_dir`, with its safety rules) as a small JSON file holding the
 records in the dataset text format. The key hashes the domain and problem files' contents, the
-grounded task's atoms and actions (so ``--objects`` or ``--keep-fluent`` make another pool), the
-generator's parameters and source, and the hbtp version.
+parsed model (a generated problem has no file), the task's objects, constants and fluent predicates
+(so ``--objects`` or ``--keep-fluent`` make another pool), the generator's parameters and source,
+and the hbtp version: all known before grounding, so a world pruned before grounding
+(:class:`~hbtp.domains.pruned.PrunedWorld`) finds its pool without grounding; only generating one
+grounds it whole.
 """
 
 from __future__ import annotations
@@ -22,8 +25,10 @@ from hbtp import __version__
 from hbtp.datasets import read_text, write_text
 from hbtp.datasets.records import Record
 from hbtp.domains import cache
+from hbtp.domains.pruned import PrunedWorld
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError
+from hbtp.logic.names import names_of
 from hbtp.planning import generate
 from hbtp.planning.generate import Sampling
 
@@ -43,38 +48,40 @@ class PoolSettings:
     level: str = "any"
 
 
-def pool_key(scenario: Scenario, settings: PoolSettings) -> str:
-    """The hash of everything a generated pool depends on."""
+def pool_key(world: Scenario | PrunedWorld, settings: PoolSettings) -> str:
+    """The hash of everything a generated pool depends on (the same for a world grounded or not)."""
     digest = hashlib.sha256(f"{FORMAT}|{__version__}|{settings!r}|{settings.sampling.key()}".encode())
-    for path in (scenario.domain_file, scenario.problem_file):
+    for path in (world.domain_file, world.problem_file):
         try:
             digest.update(Path(path).read_bytes())
         except OSError:
-            digest.update(b"\0")  # a generated problem: the task's names below still tell it apart
-    task = scenario.task
-    digest.update("\n".join(map(str, task.atoms)).encode())
-    digest.update("\n".join(f"{a.name} {a.cost}" for a in task.actions).encode())
-    digest.update(" ".join(map(str, sorted(task.initial_state))).encode())
+            digest.update(b"\0")  # a generated problem: the parsed model below still tells it apart
+    digest.update(repr(world.pddl).encode())
+    names = world.names if isinstance(world, PrunedWorld) else names_of(world.task)
+    digest.update("\n".join((" ".join(names.objects), " ".join(names.constants), *names.condition_slots)).encode())
     for module in (generate.__file__, __file__):
         digest.update(Path(module).read_bytes())
     return digest.hexdigest()
 
 
-def _entry_name(scenario: Scenario) -> str:
-    return "demonstrations-" + (re.sub(r"[^A-Za-z0-9.-]+", "_", scenario.name)[:40] or "domain")
+def _entry_name(name: str) -> str:
+    return "demonstrations-" + (re.sub(r"[^A-Za-z0-9.-]+", "_", name)[:40] or "domain")
 
 
-def generated_pool(scenario: Scenario, settings: PoolSettings = PoolSettings()) -> list[Record]:
+def generated_pool(world: Scenario | PrunedWorld, settings: PoolSettings = PoolSettings()) -> list[Record]:
     """The generated demonstrations of ``scenario``: read from the cache, or sampled and cached.
 
     Logs the warning ``no demonstrations for this domain: generated N from sampled goals (cached at
     ...)``. A domain too small to sample from gives an empty pool (the prompt then has no examples)
     with a warning saying so.
     """
-    key = pool_key(scenario, settings)
-    entry = cache.cache_entry(_entry_name(scenario), key)
+    key = pool_key(world, settings)
+    entry = cache.cache_entry(_entry_name(world.name), key)
     records = _read(entry) if entry is not None else None
     if records is None:
+        if isinstance(world, PrunedWorld):
+            log.warning("generating demonstrations grounds the whole world once (then they are cached)")
+        scenario = world.whole() if isinstance(world, PrunedWorld) else world
         try:
             records = generate.generate_records(
                 scenario.task, settings.level, settings.count, settings.sampling, scenario.mutexes

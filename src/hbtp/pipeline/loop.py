@@ -31,6 +31,8 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from hbtp.datasets.records import Record
+from hbtp.deadline import Deadline, TimeLimitReached
+from hbtp.domains.pruned import GroundedWorld, World
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import BackendError
 from hbtp.llm.backend import Backend, Request
@@ -38,10 +40,11 @@ from hbtp.llm.grammar import GrammarCheck, check_reply
 from hbtp.llm.parse import parse_reply
 from hbtp.llm.prompt import Feedback, PromptOptions, build_request, feedback_request, retry_request
 from hbtp.llm.redact import redact
+from hbtp.logic.names import ActionNames
 from hbtp.logic.task import Goal
 from hbtp.pipeline.results import REPEATED, Exchange, LoopResult, Outcome, RoundRecord, call_record
 from hbtp.planning.heuristics import HeuristicName
-from hbtp.planning.hints import Hints, ResolvedHints, pruned_action_space, resolve_hints
+from hbtp.planning.hints import Hints, pruned_action_space, resolve_hints
 from hbtp.planning.limits import Limits
 from hbtp.planning.planners import confirmed_search, plan, planner_config
 from hbtp.planning.result import PlanResult, Status
@@ -107,8 +110,8 @@ class _Asker:
     the same text and answer the same, so a retry whose prompt did not change is not sent, and a
     round whose question was already answered is skipped (it cannot help)."""
 
-    def __init__(self, scenario: Scenario, backend: Backend, retries: int, progress: Progress) -> None:
-        self.task = scenario.task
+    def __init__(self, names: ActionNames, backend: Backend, retries: int, progress: Progress) -> None:
+        self.names = names
         self.backend = backend
         self.retries = retries
         self.progress = progress
@@ -163,7 +166,7 @@ class _Asker:
         parsed = parse_reply(text)
         if "path" not in parsed.found:  # a base model continues after "Optimal Actions:"
             parsed = parse_reply("Optimal Actions:" + text)
-        check = check_reply(parsed, self.task)
+        check = check_reply(parsed, self.names)
         self.blacklist.extend(n for n in check.unknown if n not in self.blacklist)
         return check
 
@@ -184,23 +187,27 @@ class _Loop:
     """One run of the loop: its state between rounds and its steps (round, fallback)."""
 
     def __init__(
-        self, scenario: Scenario, goal: Goal, backend: Backend, pool: Sequence[Record], options: LoopOptions
+        self, world: World, goal: Goal, backend: Backend, pool: Sequence[Record], options: LoopOptions
     ) -> None:
         started = time.perf_counter()
         self.deadline = math.inf if options.time_limit is None else started + options.time_limit
-        self.scenario, self.task, self.goal = scenario, scenario.task, goal
+        #: The same bound for grounding a part of the world, or all of it.
+        self.limit = None if options.time_limit is None else Deadline(options.time_limit, started)
+        self.world, self.names, self.goal = world, world.names, goal
+        self.goal_task = world.part(frozenset(), frozenset()).task
         self.pool, self.options = pool, options
         self.prompt = options.prompt.for_backend(backend.prompt_style)
         self.config = planner_config(options.planner, heuristic=options.heuristic)
         self.progress = options.progress or _quiet
-        self.asker = _Asker(scenario, backend, options.grammar_retries, self.progress)
-        self.names = [a.signature.underscored for a in self.task.actions]
+        self.asker = _Asker(self.names, backend, options.grammar_retries, self.progress)
         self.rounds: list[RoundRecord] = []
         self.llm_seconds = self.planning_seconds = 0.0
-        #: The hints of the latest round in the space of every round so far (the space only grows).
-        self.space: ResolvedHints = resolve_hints(self.task, Hints())
+        #: The latest round's p̂ and the action predicates and objects of every round so far (the space only grows).
+        self.hints = Hints()
+        #: The scenario the last round planned in (a part of the world, or all of it) and its result.
+        self.scenario: Scenario | None = None
         self.last: PlanResult | None = None
-        self.request = build_request(self.task, str(goal), pool, self.prompt, scenario=scenario.name)
+        self.request = build_request(self.names, str(goal), pool, self.prompt, scenario=world.name)
 
     def left(self) -> float:
         return self.deadline - time.perf_counter()
@@ -232,37 +239,51 @@ class _Loop:
             # asking ends here and the loop goes to the fallback.
             self.rounds.append(RoundRecord.of(number, exchange, tuple(self.asker.blacklist)))
             return None
-        self.space = self.space.grown_by(self.task, resolve_hints(self.task, exchange.hints))
-        space = self.task.restricted(pruned_action_space(self.task, self.space))
+        self.hints = self.hints.grown_by(exchange.hints, self.names)
         left = self.left()
         if left <= 0:
             log.info("the time limit ran out before round %d could plan", number)
             return None
-        self.progress(f"planning in {len(space)} of {len(self.task.actions)} actions")
         started = time.perf_counter()
+        try:
+            scenario = self.world.part(frozenset(self.hints.predicates), frozenset(self.hints.objects), self.limit)
+        except TimeLimitReached as stop:
+            log.info("round %d: %s", number, stop)
+            return None
+        task = scenario.task
+        hints = resolve_hints(task, self.hints)
+        space = task.restricted(pruned_action_space(task, hints))
+        self.progress(f"planning in {len(space)} of {len(self.names.actions)} actions")
         # Declared mutexes speed the rounds up; without a fallback, a failed round's verdict is the
         # answer, so it must not rest on them (confirmed_search re-decides it without them).
         result = (search if self.options.fallback else confirmed_search)(
-            self.task,
-            self.goal,
+            task,
+            self.goal_in(scenario),
             space,
             self.config,
-            mutexes=self.scenario.mutexes,
-            hints=self.space,
-            limits=Limits(time_s=min(self.options.round_time_limit, left)),
+            mutexes=scenario.mutexes,
+            hints=hints,
+            limits=Limits(time_s=min(self.options.round_time_limit, self.left())),
         )
         self.planning_seconds += time.perf_counter() - started
+        self.scenario = scenario
         self.rounds.append(RoundRecord.of(number, exchange, tuple(self.asker.blacklist), len(space), result))
         self.last = result
         return result
 
+    def goal_in(self, scenario: Scenario) -> Goal:
+        """The goal in ``scenario``'s atoms (a part of a world has atoms of its own)."""
+        return self.goal if scenario.task is self.goal_task else scenario.task.resolve_goal(self.goal.atoms)
+
     def feedback(self) -> Feedback:
         """What the last round's failure tells the model: its longest paths and what its space left out."""
         assert self.last is not None
+        assert self.scenario is not None
+        actions = [a.signature.underscored for a in self.scenario.task.actions]
         return Feedback(
-            tuple(tuple(path) for path in longest_paths(self.last, self.names, self.options.top_k)),
-            tuple(sorted(set(self.task.action_predicates) - self.space.predicates)),
-            tuple(sorted(set(self.task.objects) - self.space.objects)),
+            tuple(tuple(path) for path in longest_paths(self.last, actions, self.options.top_k)),
+            tuple(sorted(set(self.names.action_predicates) - set(self.hints.predicates))),
+            tuple(sorted(set(self.names.objects) - set(self.hints.objects))),
         )
 
     def fallback(self) -> LoopResult:
@@ -279,16 +300,22 @@ class _Loop:
             )
         self.progress("fallback: planning in the full action space")
         started = time.perf_counter()
+        try:
+            whole = self.world.whole(self.limit)
+        except TimeLimitReached as stop:
+            timeout = PlanResult(Status.TIMEOUT, self.options.planner, self.goal, message=str(stop))
+            return self.result(Outcome.FAILED, timeout)
+        self.scenario = whole
         # The fallback prunes with proved mutexes only: declared ones could cut off the only solution.
         final = plan(
-            self.task,
-            self.goal,
+            whole.task,
+            self.goal_in(whole),
             self.options.planner,
-            hints=self.space,
+            hints=resolve_hints(whole.task, self.hints),
             space="full",
-            mutexes=self.scenario.mutexes.proved_only(),
+            mutexes=whole.mutexes.proved_only(),
             heuristic=self.options.fallback_heuristic,
-            limits=Limits(time_s=min(self.options.fallback_time_limit, left)),
+            limits=Limits(time_s=min(self.options.fallback_time_limit, self.left())),
         )
         self.planning_seconds += time.perf_counter() - started
         return self.result(Outcome.FALLBACK if final.solved else Outcome.FAILED, final)
@@ -300,16 +327,25 @@ class _Loop:
         return PlanResult(Status.NOT_PLANNED, self.options.planner, self.goal, message=message)
 
     def result(self, outcome: Outcome, final: PlanResult) -> LoopResult:
-        return LoopResult(outcome, final, tuple(self.rounds), self.llm_seconds, self.planning_seconds)
+        scenario = self.scenario or self.world.part(frozenset(), frozenset())
+        return LoopResult(outcome, final, tuple(self.rounds), self.llm_seconds, self.planning_seconds, scenario)
 
 
 def run_hbtp(
-    scenario: Scenario,
+    world: Scenario | World,
     goal: Goal | str,
     backend: Backend,
     pool: Sequence[Record] = (),
     options: LoopOptions = LoopOptions(),
 ) -> LoopResult:
-    """Plan ``goal`` with LLM hints, reflective feedback and the full-space fallback."""
-    resolved = scenario.task.resolve_goal(goal) if isinstance(goal, str) else goal
-    return _Loop(scenario, resolved, backend, pool, options).run()
+    """Plan ``goal`` with LLM hints, reflective feedback and the full-space fallback.
+
+    ``world`` is a grounded scenario, or a :class:`~hbtp.domains.pruned.PrunedWorld` that each round
+    grounds only in the pruned space (and whole only for the fallback). The result's ``scenario``
+    is the one its tree's actions belong to.
+    """
+    if isinstance(world, Scenario):
+        world = GroundedWorld(world)
+    if isinstance(goal, str):  # checked against the world's names, its static facts and its objects
+        goal = world.part(frozenset(), frozenset()).task.resolve_goal(goal)
+    return _Loop(world, goal, backend, pool, options).run()

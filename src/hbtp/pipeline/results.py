@@ -16,6 +16,7 @@ import enum
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError
 from hbtp.llm.backend import Reply, Request
 from hbtp.llm.grammar import GrammarCheck
@@ -228,6 +229,8 @@ class LoopResult:
     rounds: tuple[RoundRecord, ...]
     llm_seconds: float
     planning_seconds: float
+    #: The scenario the result's tree belongs to: the world's, or the part of it the last round grounded.
+    scenario: Scenario
 
     @property
     def solved(self) -> bool:

@@ -17,6 +17,7 @@ from typing import TypeVar
 
 from hbtp.errors import InputError
 from hbtp.logic.atoms import parse_atom
+from hbtp.logic.names import ActionNames
 from hbtp.logic.task import GroundTask
 
 log = logging.getLogger(__name__)
@@ -35,6 +36,20 @@ class Hints:
     @property
     def empty(self) -> bool:
         return not (self.path or self.predicates or self.objects)
+
+    def grown_by(self, newer: Hints, names: ActionNames) -> Hints:
+        """``newer``'s p̂ with the action predicates and objects of both and of the actions of p̂
+        (Q⁻ = Q̂ ∪ Q(p̂), O⁻ = Ô ∪ O(p̂), the feedback rounds': the space only grows); names that
+        ``names`` does not know are left out."""
+        path = [atom for atom in (parse_atom(a) for a in newer.path) if atom in names.signatures]
+        known = set(names.action_predicates)
+        predicates = dict.fromkeys(self.predicates)
+        predicates.update(dict.fromkeys(p for p in newer.predicates if p in known))
+        predicates.update(dict.fromkeys(a.predicate for a in path))
+        objects = dict.fromkeys(self.objects)
+        objects.update(dict.fromkeys(o for o in newer.objects if o in names.symbols))
+        objects.update(dict.fromkeys(o for a in path for o in a.args))
+        return Hints(tuple(str(a) for a in path), tuple(predicates), tuple(objects))
 
     @classmethod
     def from_plan(cls, task: GroundTask, actions: Iterable[int]) -> Hints:
@@ -67,13 +82,6 @@ class ResolvedHints:
             self.predicates | {a.predicate for a in path_actions},
             self.objects | {o for a in path_actions for o in a.objects},
             self.unknown,
-        )
-
-    def grown_by(self, task: GroundTask, newer: ResolvedHints) -> ResolvedHints:
-        """``newer``'s p̂ in the union of both spaces (the feedback rounds': the space only grows)."""
-        mine, theirs = self.space(task), newer.space(task)
-        return ResolvedHints(
-            newer.path, mine.predicates | theirs.predicates, mine.objects | theirs.objects, newer.unknown
         )
 
 
