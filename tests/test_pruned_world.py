@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import random
 from pathlib import Path
 
 import pytest
@@ -13,8 +14,9 @@ from hbtp.bt.verify import verify
 from hbtp.cli import EXIT_OK, main
 from hbtp.datasets import load_dataset
 from hbtp.domains import load_scenario
+from hbtp.domains.grounding import Selection, ground
 from hbtp.domains.pruned import PrunedWorld
-from hbtp.domains.scenarios import Scenario, ScenarioOptions
+from hbtp.domains.scenarios import Scenario, ScenarioOptions, read_pddl
 from hbtp.llm.backend import PromptStyle, Reply, Request
 from hbtp.llm.backends.oracle import OracleBackend
 from hbtp.llm.pool import example_pool
@@ -156,3 +158,25 @@ def test_payoff_runs_the_pruned_configuration(tmp_path: Path) -> None:
     assert all(r["load_kind"] == "names listed, pruned before grounding" for r in pruned)
     summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
     assert "hbtp-pruned:oracle" in summary["cells"][0]["against"]
+
+
+IPC = Path(__file__).resolve().parents[2] / "shared" / "benchmarks" / "ipc"
+
+
+@pytest.mark.skipif(not IPC.is_dir(), reason="the IPC benchmark files are not beside the checkout")
+@pytest.mark.parametrize(
+    ("domain", "problem"), [("rovers", "p01.pddl"), ("depot", "p01.pddl"), ("gripper", "prob01.pddl")]
+)
+def test_a_selection_grounds_what_its_filter_grounds(domain: str, problem: str) -> None:
+    pddl = read_pddl(IPC / domain / "domain.pddl", IPC / domain / problem)
+    names = PrunedWorld.load(IPC / domain / "domain.pddl", IPC / domain / problem, parsed=pddl).names
+    rng = random.Random(domain)
+    for _ in range(5):
+        chosen = Selection(
+            frozenset(rng.sample(names.action_predicates, k=max(1, len(names.action_predicates) // 2))),
+            frozenset(rng.sample(sorted(names.symbols), k=max(1, len(names.symbols) * 2 // 3))),
+        )
+        fast = ground(pddl.domain, pddl.problem, only=chosen, reachable_only=True)
+        plain = ground(pddl.domain, pddl.problem, only=lambda s, a, c=chosen: c(s, a), reachable_only=True)
+        assert _action_facts(fast) == _action_facts(plain)
+        assert fast.atoms == plain.atoms

@@ -66,6 +66,21 @@ log = logging.getLogger(__name__)
 Binding = dict[str, str]
 #: Which ground actions to build: called with the schema's name and the argument tuple.
 ActionFilter = Callable[[str, tuple[str, ...]], bool]
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The ground actions of some schemas whose every argument is one of some objects: the pruned
+    space (Q⁻ × O⁻) ∩ A as an :data:`ActionFilter` that the grounder also uses to skip the other
+    schemas and to join only over the objects (so a small part of a large world grounds quickly)."""
+
+    predicates: frozenset[str]
+    objects: frozenset[str]
+
+    def __call__(self, schema: str, args: tuple[str, ...]) -> bool:
+        return schema in self.predicates and all(a in self.objects for a in args)
+
+
 #: Per action schema, the argument tuples of its ground actions with their costs (see :func:`action_bindings`).
 ActionBindings = dict[str, tuple[tuple[tuple[str, ...], int], ...]]
 
@@ -131,7 +146,8 @@ def ground(
     applied from s0 even when deletes are ignored are left out, with the atoms only they mention.
     With ``only``, only the ground actions whose schema name and arguments it accepts are built
     (exactly as in the full task, re-indexed), with the atoms s0 or they mention; the limit then
-    applies to the number of actions kept, not to the estimate of all of them.
+    applies to the number of actions kept, not to the estimate of all of them. A :class:`Selection`
+    is also used to skip the schemas and objects it leaves out before joining.
     """
     if max_ground_actions is None:
         max_ground_actions = ground_actions_limit()
@@ -261,7 +277,9 @@ class _Grounder:
         self.static_facts: set[_Key] = set()
         self.static_index: dict[str, list[tuple[str, ...]]] = {}
         self.indexes: dict[tuple[str, tuple[int, ...]], dict[tuple[str, ...], list[tuple[str, ...]]]] = {}
-        self.plans: dict[tuple[int, tuple[TypedName, ...], frozenset[str]], tuple[list[_Literal], _Plan]] = {}
+        self.plans: dict[
+            tuple[int, tuple[TypedName, ...], frozenset[str], frozenset[str] | None], tuple[list[_Literal], _Plan]
+        ] = {}
         self.initial: set[_Key] = set()
         self.interned: dict[_Key, _Key] = {}  # one tuple per distinct atom: less memory, quicker lookups
         for fact in problem.init:
@@ -427,6 +445,8 @@ class _Grounder:
         )
 
     def _ground_schema(self, schema: ActionSchema) -> Iterator[_Grounded]:
+        if isinstance(self.only, Selection) and schema.name not in self.only.predicates:
+            return
         counting = self.only is not None
         for key, pre, add, delete, cost in self.build(schema, costs_only=False):
             if counting:
@@ -472,8 +492,9 @@ class _Grounder:
         """Each binding (once) whose static precondition holds, that ``only`` accepts and whose fluent
         precondition is not false, with the fluent atoms it requires."""
         names, fluent, only = compiled.names, compiled.fluent, self.only
+        allowed = only.objects if isinstance(only, Selection) else None
         seen: set[tuple[str, ...]] = set()
-        for binding in self._bindings(compiled.static, schema.parameters, {}):
+        for binding in self._bindings(compiled.static, schema.parameters, {}, allowed):
             self.tick()
             key = tuple([binding[name] for name in names])
             if key in seen:
@@ -618,14 +639,25 @@ class _Grounder:
 
     # --------------------------------------------------------------- binding
     def _bindings(
-        self, terms: list[list[_Literal]], params: tuple[TypedName, ...], start: Binding
+        self,
+        terms: list[list[_Literal]],
+        params: tuple[TypedName, ...],
+        start: Binding,
+        allowed: frozenset[str] | None = None,
     ) -> Iterator[Binding]:
-        """Every binding of ``params`` (extending ``start``) under which some term of ``terms`` holds."""
+        """Every binding of ``params`` (extending ``start``; each value in ``allowed`` when given)
+        under which some term of ``terms`` holds."""
         for term in terms:
-            yield from self._join(term, params, start)
+            yield from self._join(term, params, start, allowed)
 
-    def _join(self, term: list[_Literal], params: tuple[TypedName, ...], start: Binding) -> Iterator[Binding]:
-        plan = self._plan(term, params, start)
+    def _join(
+        self,
+        term: list[_Literal],
+        params: tuple[TypedName, ...],
+        start: Binding,
+        allowed: frozenset[str] | None = None,
+    ) -> Iterator[Binding]:
+        plan = self._plan(term, params, start, allowed)
         binding = dict(start)
         for equal in plan.equalities:
             bound = _bind_equal(binding, equal)
@@ -694,16 +726,20 @@ class _Grounder:
             self.indexes[predicate, positions] = index
         return index
 
-    def _plan(self, term: list[_Literal], params: tuple[TypedName, ...], start: Binding) -> _Plan:
-        key = (id(term), params, frozenset(start))
+    def _plan(
+        self, term: list[_Literal], params: tuple[TypedName, ...], start: Binding, allowed: frozenset[str] | None
+    ) -> _Plan:
+        key = (id(term), params, frozenset(start), allowed)
         cached = self.plans.get(key)
         if cached is not None and cached[0] is term:
             return cached[1]
-        plan = self._make_plan(term, params, set(start))
+        plan = self._make_plan(term, params, set(start), allowed)
         self.plans[key] = (term, plan)
         return plan
 
-    def _make_plan(self, term: list[_Literal], params: tuple[TypedName, ...], bound: set[str]) -> _Plan:
+    def _make_plan(
+        self, term: list[_Literal], params: tuple[TypedName, ...], bound: set[str], allowed: frozenset[str] | None
+    ) -> _Plan:
         """The join of ``term`` when ``bound`` names the variables bound at its start (see :class:`_Plan`).
 
         Positive atoms are joined in increasing number of facts; every other literal, and the type of
@@ -723,6 +759,8 @@ class _Grounder:
         for p in params:
             if p.types != (OBJECT_TYPE,) and (p.name in joined or not unique):
                 pending.append(({p.name}, _member_check(p.name, frozenset(self.domain_of(p)))))
+            if allowed is not None and (p.name in joined or not unique):
+                pending.append(({p.name}, _member_check(p.name, allowed)))
         checks, pending = _ready(pending, bound)
         steps: list[_Step] = []
         for atom in positives:
@@ -735,7 +773,7 @@ class _Grounder:
             checks=checks,
             steps=tuple(steps),
             unbound=tuple(p.name for p in unbound),
-            domains=tuple(self.domain_of(p) for p in unbound),
+            domains=tuple(_within(self.domain_of(p), allowed) for p in unbound),
             last_checks=tuple(check for _, check in pending),
         )
 
@@ -1025,6 +1063,10 @@ def _equality_check(left: str, right: str, positive: bool) -> _Check:
         return (a == b) == second
 
     return check
+
+
+def _within(values: tuple[str, ...], allowed: frozenset[str] | None) -> tuple[str, ...]:
+    return values if allowed is None else tuple(v for v in values if v in allowed)
 
 
 def _member_check(variable: str, members: frozenset[str]) -> _Check:

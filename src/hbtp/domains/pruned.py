@@ -32,7 +32,7 @@ from pathlib import Path
 
 from hbtp.collector import collector_paused
 from hbtp.deadline import Deadline, check_deadline
-from hbtp.domains.grounding import ActionFilter, action_bindings
+from hbtp.domains.grounding import ActionFilter, Selection, action_bindings
 from hbtp.domains.lifted import (
     AddEffect,
     And,
@@ -136,10 +136,7 @@ class PrunedWorld:
         return self._parts[key]
 
     def _ground_part(self, predicates: frozenset[str], objects: frozenset[str], deadline: Deadline | None) -> Scenario:
-        def wanted(schema: str, args: tuple[str, ...]) -> bool:
-            return schema in predicates and all(a in objects for a in args)
-
-        return self._load(deadline, wanted)
+        return self._load(deadline, Selection(predicates, objects))
 
     def whole(self, deadline: Deadline | None = None) -> Scenario:
         """The whole world grounded (once)."""
