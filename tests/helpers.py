@@ -249,8 +249,9 @@ class SymbolicEngine:
 
 
 # ------------------------------------------------------------------------------ a small shared task
-def kitchen_builder() -> DomainBuilder:
-    """Walk to the fridge, open it, put the milk in: a small task several tests extend."""
+def kitchen_builder(holding: bool = True) -> DomainBuilder:
+    """Walk to the fridge, open it, put the milk in: a small task several tests extend (the milk in
+    hand at the start unless ``holding`` is false)."""
     return (
         DomainBuilder("kitchen")
         .constants(["self"])
@@ -269,7 +270,7 @@ def kitchen_builder() -> DomainBuilder:
             delete=["IsHolding(self,milk)"],
             cost=10,
         )
-        .initial(["IsStanding(self)", "IsClose(fridge)", "IsHolding(self,milk)"])
+        .initial(["IsStanding(self)", "IsClose(fridge)", *(["IsHolding(self,milk)"] if holding else [])])
     )
 
 

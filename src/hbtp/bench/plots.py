@@ -162,18 +162,20 @@ def plot_robustness(summary: dict[str, Any], path: Path) -> bool:
     blocks = summary["scenarios"]
     names = list(blocks)
     p_values = [str(p) for p in summary["config"]["p_values"]]
+    trees = summary["config"].get("trees", ["full", "path"])
+    width = 0.8 / len(trees)
     figure, axes = plt.subplots(1, len(p_values), figsize=(5.5 * len(p_values), 3.8), squeeze=False)
     for axis, p in zip(axes[0], p_values, strict=True):
-        for index, tree in enumerate(("full", "path")):
-            xs = [i + index * 0.4 for i in range(len(names))]
+        for index, tree in enumerate(trees):
+            xs = [i + index * width for i in range(len(names))]
             values = [100 * (blocks[name]["p"][p][tree]["success_rate"] or 0) for name in names]
-            axis.bar(xs, values, 0.4, label=f"{tree} tree")
-        axis.set_xticks([i + 0.2 for i in range(len(names))])
+            axis.bar(xs, values, width, label=f"{tree} tree")
+        axis.set_xticks([i + 0.4 - width / 2 for i in range(len(names))])
         axis.set_xticklabels(names, fontsize=8)
         # The legend sits in the free band above 100 %, clear of the bars.
         axis.set(ylabel="runs reaching the goal (%)", ylim=(0, 120), title=f"perturbation p = {p} per tick")
         axis.set_yticks(range(0, 101, 20))
-        axis.legend(fontsize=8, loc="upper center", ncol=2)
+        axis.legend(fontsize=8, loc="upper center", ncol=len(trees))
     return _save(plt, figure, path)
 
 

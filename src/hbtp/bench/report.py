@@ -248,7 +248,7 @@ def robustness_section(summary: dict[str, Any]) -> str:
     rows = []
     for name, block in summary["scenarios"].items():
         for p, entry in block["p"].items():
-            for tree in ("full", "path"):
+            for tree in config.get("trees", ["full", "path"]):
                 row = entry[tree]
                 rows.append(
                     [
@@ -286,9 +286,39 @@ def robustness_section(summary: dict[str, Any]) -> str:
                 ],
                 rows,
             ),
+            *_replanning_table(summary),
             "![Robustness](robustness.png)",
         ]
     )
+
+
+def _replanning_table(summary: dict[str, Any]) -> list[str]:
+    """With re-planning: the runs whose goal stayed reachable, re-plans and their times."""
+    trees = [t for t in summary["config"].get("trees", []) if t.endswith("+replan")]
+    if not trees:
+        return []
+    rows = [
+        [
+            name,
+            p,
+            tree,
+            f"{entry[tree]['reachable_runs_succeeded']} / {entry[tree]['reachable_runs']}",
+            entry[tree]["unsolvable_runs"],
+            _num(entry[tree]["mean_replans"]),
+            _num(entry[tree]["median_replan_ms"], 1),
+            _num(entry[tree]["max_replan_ms"], 1),
+        ]
+        for name, block in summary["scenarios"].items()
+        for p, entry in block["p"].items()
+        for tree in trees
+    ]
+    header = ["scenario", "p", "tree", "reached / goal still reachable", "runs unsolvable from their state"]
+    header += ["re-plans per run", "median re-plan ms", "max re-plan ms"]
+    return [
+        "With re-planning (`--replan`: OBTEA with the landmark heuristic from the state the tree fails in; "
+        "at most 10 re-plans and 30 s of re-planning per run):",
+        _table(header, rows),
+    ]
 
 
 def write_report(path: Path, title: str, sections: Sequence[str]) -> None:

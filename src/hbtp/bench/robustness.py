@@ -20,7 +20,7 @@ from typing import Any
 
 from hbtp.bench.plots import plot_robustness
 from hbtp.bench.report import robustness_section, write_report
-from hbtp.bench.results import ResultsFile, mean, write_json
+from hbtp.bench.results import ResultsFile, mean, median, write_json
 from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, RunFailure, Work, hard_limit, run_work
 from hbtp.bt import tree_of
 from hbtp.bt.disturb import perturbation_stats
@@ -31,13 +31,17 @@ from hbtp.datasets.records import Record
 from hbtp.domains import Scenario, load_scenario
 from hbtp.errors import InputError
 from hbtp.llm.parse import hints_from_record
+from hbtp.logic.task import Goal
 from hbtp.planning import PLANNERS, Limits, PlanResult, plan
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
+from hbtp.runtime import replanning_stats
 
 log = logging.getLogger(__name__)
 
 SCENARIOS = ("robowaiter", "virtualhome", "robothow-small", "robothow")
 TREES = ("full", "path")
+#: The same trees run with re-planning (:mod:`hbtp.runtime`) when the benchmark is asked to.
+REPLANNED = ("full+replan", "path+replan")
 KEY = ("scenario", "task", "planner", "heuristic", "robust", "p", "tree", "runs", "seed", "max_ticks")
 MAX_TICKS = 500
 TIME_LIMIT = 30.0
@@ -111,6 +115,13 @@ class RobustnessConfig:
     planner: str = "hbtp-s"
     heuristic: HeuristicName = "lm"
     robust: int = 0
+    #: Also run each tree with re-planning (OBTEA with the landmark heuristic from the state the tree
+    #: fails in): the ``full+replan`` and ``path+replan`` rows.
+    replan: bool = False
+
+    @property
+    def trees(self) -> tuple[str, ...]:
+        return (*TREES, *REPLANNED) if self.replan else TREES
 
     def __post_init__(self) -> None:
         unknown = [s for s in self.scenarios if s not in SCENARIOS]
@@ -138,6 +149,7 @@ class RobustnessConfig:
             "planner": self.planner,
             "heuristic": self.heuristic,
             "robust": self.robust,
+            "trees": list(self.trees),
         }
 
 
@@ -157,7 +169,7 @@ def run_robustness(
     run_work(
         run_one, work, results, execution, kill_after=hard_limit(TIME_LIMIT, slack=120.0), description="robustness"
     )
-    summary = summarise(list(results.ordered(keys)), config.scenarios, config.p_values)
+    summary = summarise(list(results.ordered(keys)), config.scenarios, config.p_values, config.trees)
     summary["config"] = config.to_dict()
     summary["elapsed_s"] = round(time.perf_counter() - started, 3)
     write_json(out / "summary.json", summary)
@@ -208,7 +220,7 @@ def _killed_rows(scenario: str, record: Record, config: RobustnessConfig) -> tup
             **_NOT_RUN,
         }
         for p in config.p_values
-        for kind in TREES
+        for kind in config.trees
     )
 
 
@@ -235,15 +247,15 @@ def _run_task(scenario: Scenario, record: Record, config: RobustnessConfig) -> l
     }
     goal = scenario.task.resolve_goal(record.goal)
     rows: list[dict[str, Any]] = []
-    for kind in TREES:
-        tree = tree_of(result, kind) if result.solved else None
-        rows += _tree_rows(scenario, goal.ids, kind, tree, config, base)
+    for kind in config.trees:
+        tree = tree_of(result, kind.removesuffix("+replan")) if result.solved else None
+        rows += _tree_rows(scenario, goal, kind, tree, config, base)
     return rows
 
 
 def _tree_rows(
     scenario: Scenario,
-    goal: frozenset[int],
+    goal: Goal,
     kind: str,
     tree: Node | None,
     config: RobustnessConfig,
@@ -263,13 +275,26 @@ def _tree_rows(
         if tree is None:
             row.update(_NOT_RUN)
         else:
-            stats = perturbation_stats(tree, task, goal, scenario.mutexes, p, config.runs, seed, config.max_ticks)
+            stats = _stats(scenario, goal, kind, tree, p, seed, config)
             row.update({k: v for k, v in stats.items() if k not in ("p", "seed")})
         rows.append(row)
     return rows
 
 
-def summarise(rows: Sequence[dict[str, Any]], scenarios: Sequence[str], p_values: Sequence[float]) -> dict[str, Any]:
+def _stats(
+    scenario: Scenario, goal: Goal, kind: str, tree: Node, p: float, seed: int, config: RobustnessConfig
+) -> dict[str, Any]:
+    if kind in REPLANNED:
+        return replanning_stats(scenario, goal, tree, p, config.runs, seed, config.max_ticks)
+    return perturbation_stats(tree, scenario.task, goal.ids, scenario.mutexes, p, config.runs, seed, config.max_ticks)
+
+
+def summarise(
+    rows: Sequence[dict[str, Any]],
+    scenarios: Sequence[str],
+    p_values: Sequence[float],
+    trees: Sequence[str] = TREES,
+) -> dict[str, Any]:
     """Per scenario (and ``all``), per p and tree: means over tasks; and full-vs-path task counts."""
     table: dict[str, Any] = {}
     for name in [*scenarios, "all"]:
@@ -278,7 +303,7 @@ def summarise(rows: Sequence[dict[str, Any]], scenarios: Sequence[str], p_values
         for p in p_values:
             at_p = [r for r in mine if r["p"] == p]
             entry: dict[str, Any] = {}
-            for kind in TREES:
+            for kind in trees:
                 chosen = [r for r in at_p if r["tree"] == kind]
                 entry[kind] = {
                     "tasks": len(chosen),
@@ -295,6 +320,7 @@ def summarise(rows: Sequence[dict[str, Any]], scenarios: Sequence[str], p_values
                     "mean_condition_checks": mean(
                         [r["condition_checks"] for r in chosen if r.get("condition_checks") is not None]
                     ),
+                    **(_replanning(chosen) if kind in REPLANNED else {}),
                 }
             pairs = _pairs(at_p)
             entry["full_better"] = sum(f > q for f, q in pairs)
@@ -308,6 +334,21 @@ def summarise(rows: Sequence[dict[str, Any]], scenarios: Sequence[str], p_values
             "p": per_p,
         }
     return {"benchmark": "robustness", "scenarios": table}
+
+
+def _replanning(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """The re-planning figures of a tree kind's rows: runs whose goal stayed reachable and how many
+    of them succeeded, re-plans per run, and the median of the rows' median re-planning times."""
+    runs = sum(r["runs"] for r in rows if r.get("unsolvable_runs") is not None)
+    unsolvable = sum(r["unsolvable_runs"] for r in rows if r.get("unsolvable_runs") is not None)
+    return {
+        "reachable_runs": runs - unsolvable,
+        "reachable_runs_succeeded": sum(r["successes"] for r in rows if r.get("unsolvable_runs") is not None),
+        "unsolvable_runs": unsolvable,
+        "mean_replans": mean([r["mean_replans"] for r in rows if r.get("mean_replans") is not None]),
+        "median_replan_ms": median([r["median_replan_ms"] for r in rows if r.get("median_replan_ms") is not None]),
+        "max_replan_ms": max((r["max_replan_ms"] for r in rows if r.get("max_replan_ms") is not None), default=None),
+    }
 
 
 def _pairs(rows: Sequence[dict[str, Any]]) -> list[tuple[float, float]]:

@@ -32,6 +32,7 @@ def _config(
     max_ticks: int,
     robust: int,
     limit: int | None,
+    replan: bool,
 ) -> RobustnessConfig:
     chosen = comma_choices(scenario_text, SCENARIOS, "--scenarios", "scenario")
     if runs < 1:
@@ -48,6 +49,7 @@ def _config(
         planner=planner,
         heuristic=cast(HeuristicName, heuristic),
         robust=robust,
+        replan=replan,
     )
 
 
@@ -82,6 +84,11 @@ robustness_options = option_group(
         "--robust", type=click.IntRange(0), default=0, show_default=True, help="Extra expansions after each solution."
     ),
     click.option("--limit", type=int, help="Only the first N tasks of each test set."),
+    click.option(
+        "--replan",
+        is_flag=True,
+        help="Also run each tree with re-planning from the state it fails in (rows full+replan, path+replan).",
+    ),
 )
 
 
@@ -99,12 +106,12 @@ def robustness(out_dir: str, config: RobustnessConfig, execution: Execution) -> 
     )
     for name, block in summary["scenarios"].items():
         for p, entry in block["p"].items():
-            for kind in ("full", "path"):
+            for kind in config.trees:
                 row = entry[kind]
                 better = f"{entry['full_better']:>9}  {entry['path_better']:>9}" if kind == "full" else ""
                 nodes = f"{row['mean_nodes']:.1f}" if row["mean_nodes"] is not None else "-"
                 click.echo(
-                    f"{name:15} {p:>4} {kind:5} {_figure(row['success_rate'], True):>8} "
+                    f"{name:15} {p:>4} {kind:11} {_figure(row['success_rate'], True):>8} "
                     f"{_figure(row['mean_extra_ticks']):>12} {_figure(row['mean_extra_cost']):>11} {nodes:>7}  {better}"
                 )
     click.echo(f"wrote {Path(out_dir) / 'results.jsonl'} and {Path(out_dir) / 'summary.json'}")

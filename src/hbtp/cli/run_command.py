@@ -25,9 +25,10 @@ from hbtp.bt.simulate import DEFAULT_MAX_TICKS, Run, simulate, trace_to_jsonl
 from hbtp.bt.verify import verify
 from hbtp.cli.exit_codes import CommandError, ExitCode, command_error
 from hbtp.cli.options import ScenarioSource, echo_json, scenario_options, write_files_atomically
-from hbtp.cli.tree_input import load_tree_input
+from hbtp.cli.tree_input import TreeInput, load_tree_input
 from hbtp.errors import HbtpError, InputError
 from hbtp.logic.task import GroundTask
+from hbtp.runtime import ReplanOptions, replanning_runs, replanning_summary
 
 log = logging.getLogger(__name__)
 
@@ -108,6 +109,14 @@ def _number(value: Any, sign: bool = False) -> str:
 @click.option("--runs", type=int, default=1, show_default=True, help="Perturbed runs (with --perturb).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the perturbations.")
 @click.option("--max-ticks", type=int, default=DEFAULT_MAX_TICKS, show_default=True, help="Give up after this many.")
+@click.option(
+    "--replan",
+    type=click.IntRange(0),
+    default=0,
+    show_default=True,
+    help="Re-plan from the state (OBTEA, landmark heuristic) when no condition of the tree holds, "
+    "at most this many times per run; 0: never.",
+)
 @click.option("--trace", "trace_file", type=click.Path(dir_okay=False), help="Write a tick-by-tick JSONL trace.")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 @exit_codes
@@ -119,6 +128,7 @@ def run_command(
     runs: int,
     seed: int,
     max_ticks: int,
+    replan: int,
     trace_file: str | None,
     as_json: bool,
 ) -> int:
@@ -129,6 +139,8 @@ def run_command(
     """
     _check_options(perturb, runs, max_ticks)
     read = load_tree_input(tree_file, source, goal_option)
+    if replan:
+        return _run_replanning(read, tree_file, perturb, runs, seed, max_ticks, replan, trace_file, as_json)
     task = read.scenario.task
     goal_ids = read.goal.ids if read.goal is not None else frozenset()
     base = simulate(read.tree, task, max_ticks=max_ticks, trace=trace_file is not None and perturb == 0)
@@ -166,6 +178,53 @@ def run_command(
     else:
         _echo_disturbed(stats, base.reached(goal_ids), base, perturb, seed)
     return EXIT_OK if stats["successes"] == len(results) else EXIT_FAILED
+
+
+def _run_replanning(
+    read: TreeInput,
+    tree_file: str,
+    perturb: float,
+    runs: int,
+    seed: int,
+    max_ticks: int,
+    replan: int,
+    trace_file: str | None,
+    as_json: bool,
+) -> int:
+    """``hbtp run --replan N``: every run re-plans (at most N times) when the tree has no answer."""
+    if read.goal is None:
+        raise InputError("--replan needs a goal to plan for: give -g, or a tree file that records one")
+    task, goal = read.scenario.task, read.goal
+    base = simulate(read.tree, task, max_ticks=max_ticks)
+    options = ReplanOptions(max_replans=replan)
+    results = replanning_runs(
+        read.scenario, goal, read.tree, perturb, runs, seed, max_ticks=max_ticks, options=options,
+        trace=trace_file is not None,
+    )  # fmt: skip
+    stats = replanning_summary(base, results, goal)
+    _write_traces(trace_file, [r.run for r in results], task, numbered=True)
+    reached = stats["successes"] == len(results)
+    if as_json:
+        rows = [
+            {"reached": r.reached(goal.ids), **r.run.to_dict(task), "replans": [x.to_dict() for x in r.replans],
+             "gave_up": r.gave_up}
+            for r in results
+        ]  # fmt: skip
+        header = {"tree": tree_file, "scenario": read.scenario.name, "goal": goal_text(goal)}
+        echo_json(
+            {**header, "p": perturb, "seed": seed, "replan": replan, "reached": reached, **stats, "results": rows}
+        )
+    else:
+        _echo_disturbed(stats, base.reached(goal.ids), base, perturb, seed)
+        median = stats["median_replan_ms"]
+        click.echo(
+            f"re-plans: {stats['replans']} in all, median {_number(median)} ms; "
+            f"{stats['unsolvable_runs']} run(s) ended with the goal unreachable from their state"
+        )
+        for result in results:
+            if result.gave_up is not None:
+                click.echo(f"  gave up: {result.gave_up}")
+    return EXIT_OK if reached else EXIT_FAILED
 
 
 def _check_options(perturb: float, runs: int, max_ticks: int) -> None:

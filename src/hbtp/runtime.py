@@ -1,0 +1,495 @@
+"""Run a planned tree in a world that can surprise it, and re-plan when the tree has no answer.
+
+A planned tree acts from every state that satisfies one of its conditions. A disturbance can leave
+the world in a state that satisfies none (the tree's root fails), and on a robot an action can keep
+failing. :class:`Replanner` is a policy (:data:`hbtp.logic.execution.Policy`) that ticks the current
+tree and, when it fails, plans again from the state it is ticked in (LLM-free: OBTEA with the
+landmark heuristic by default), swaps the new tree in and ticks that. It is bounded: at most
+``max_replans`` re-plans and ``budget_s`` seconds of re-planning per run; then, or when the goal is
+unsolvable from the observed state, the policy fails for good with the reason in
+:attr:`Replanner.gave_up`.
+
+Two ways to run it:
+
+* in the symbolic world (:func:`run_replanning`): the one executor applies each action's effects and
+  an optional disturbance changes the state before ticks; the robustness benchmark uses this;
+* on a robot (:class:`Runtime`): the user gives an implementation per action (a callable returning
+  ``"success"``, ``"failure"`` or ``"running"``, or a :class:`NodeStatus`) and an observer returning
+  the literals that hold now. Each tick observes, ticks the tree, and calls the running action; an
+  action that fails ``max_failures`` times in a row is left out of the next plan. A callback that
+  raises or answers garbage counts as a failure (logged); one that does not return within
+  ``tick_timeout_s`` ends the run with :class:`RuntimeFailure`.
+
+Re-planning from a state uses the proved mutexes only when the state satisfies them (a state that
+breaks an invariant, which no action can cause, is planned from without mutex pruning).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import random
+import statistics
+import threading
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from hbtp.bt.build import tree_of
+from hbtp.bt.disturb import RandomDisturbance, check_probability, event_model, run_seed, summarise_runs
+from hbtp.bt.nodes import Fallback, Node
+from hbtp.bt.simulate import DEFAULT_MAX_TICKS, compile_tree, simulate
+from hbtp.domains.scenarios import Scenario
+from hbtp.errors import HbtpError, InputError
+from hbtp.logic.atoms import parse_atom
+from hbtp.logic.execution import Disturbance, NodeStatus, Policy, Run, Trace, TraceStep, execute
+from hbtp.logic.task import Goal, GroundAction, GroundTask, State
+from hbtp.planning.heuristics import HeuristicName
+from hbtp.planning.limits import Limits
+from hbtp.planning.planners import confirmed_search, planner_config
+from hbtp.planning.result import PlanResult, Status
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "Replan",
+    "ReplanOptions",
+    "Replanner",
+    "ReplanningRun",
+    "Runtime",
+    "RuntimeFailure",
+    "replanning_runs",
+    "replanning_stats",
+    "replanning_summary",
+    "run_replanning",
+]
+
+
+#: How :attr:`Replanner.gave_up` starts when no tree reaches the goal from the state.
+UNSOLVABLE_FROM_STATE = "no tree reaches the goal from the observed state"
+
+
+class RuntimeFailure(HbtpError):
+    """The runtime had to stop: a callback hung, or the observer named what the domain does not have."""
+
+
+@dataclass(frozen=True)
+class ReplanOptions:
+    """How to re-plan: the planner and heuristic, the kind of tree, and the bounds of one run."""
+
+    max_replans: int = 10
+    #: Seconds of re-planning in one run, all re-plans together.
+    budget_s: float = 30.0
+    planner: str = "obtea"
+    heuristic: HeuristicName = "lm"
+    tree: str = "full"
+
+    def __post_init__(self) -> None:
+        if self.max_replans < 0:
+            raise InputError(f"max_replans must not be negative, not {self.max_replans}")
+        if not self.budget_s > 0:
+            raise InputError(f"the re-planning budget must be a positive number of seconds, not {self.budget_s}")
+        if self.tree not in ("full", "path"):
+            raise InputError(f"unknown tree kind {self.tree!r}; choose full or path")
+        planner_config(self.planner, heuristic=self.heuristic)  # checks both names
+
+
+@dataclass(frozen=True)
+class Replan:
+    """One re-plan: at which tick, why, how long it took and what it found."""
+
+    tick: int
+    reason: str
+    seconds: float
+    status: str
+    cost: int | None = None
+    message: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+class Replanner:
+    """A policy: the current tree's tick, or a new tree planned from the state when it fails."""
+
+    def __init__(self, scenario: Scenario, goal: Goal, tree: Node, options: ReplanOptions = ReplanOptions()) -> None:
+        self.task = scenario.task
+        self.mutexes = scenario.mutexes.proved_only()
+        self.goal = goal
+        self.options = options
+        self.policy: Policy = compile_tree(tree, self.task)
+        self.tree = tree
+        self.replans: list[Replan] = []
+        self.spent = 0.0
+        self.ticks = 0
+        self.excluded: set[int] = set()
+        #: Why the policy stopped re-planning (``None`` while it may still re-plan).
+        self.gave_up: str | None = None
+
+    def __call__(self, state: State) -> tuple[NodeStatus, int | None]:
+        self.ticks += 1
+        status, action = self.policy(state)
+        if status is not NodeStatus.FAILURE or self.gave_up is not None:
+            return status, action
+        if not self.replan(state, "no condition of the tree holds"):
+            return NodeStatus.FAILURE, None
+        return self.policy(state)
+
+    def replan(self, state: State, reason: str, without: Iterable[int] = ()) -> bool:
+        """Plan from ``state`` (leaving out the actions ``without`` from now on) and use the new tree;
+        ``False`` (and :attr:`gave_up` set) when the bounds are reached or no tree reaches the goal."""
+        self.excluded.update(without)
+        options = self.options
+        if len(self.replans) >= options.max_replans:
+            return self._give_up(f"gave up after {len(self.replans)} re-plan(s) (max_replans)")
+        left = options.budget_s - self.spent
+        if left <= 0:
+            return self._give_up(f"the re-planning budget of {options.budget_s:g} s is spent")
+        started = time.perf_counter()
+        result = self._plan(state, left)
+        seconds = time.perf_counter() - started
+        self.spent += seconds
+        self.replans.append(
+            Replan(self.ticks, reason, round(seconds, 6), result.status.value, result.cost, result.message)
+        )
+        log.info("tick %d: re-planned (%s) in %.1f ms: %s", self.ticks, reason, seconds * 1000, result.status.value)
+        if result.status is Status.UNSOLVABLE:
+            return self._give_up(f"{UNSOLVABLE_FROM_STATE}: {result.message}")
+        if not result.solved:
+            return self._give_up(f"re-planning found no tree ({result.status.value}: {result.message})")
+        self.tree = tree_of(result, options.tree)
+        self.policy = compile_tree(self.tree, self.task)
+        return True
+
+    def _plan(self, state: State, seconds: float) -> PlanResult:
+        world = dataclasses.replace(self.task, initial_state=frozenset(state))
+        goal = world.resolve_goal(self.goal.atoms)
+        actions: Sequence[GroundAction] = world.actions
+        if self.excluded:
+            actions = [a for a in world.actions if a.index not in self.excluded]
+        mutexes = self.mutexes if self.mutexes.conflict(frozenset(state)) is None else None
+        config = planner_config(self.options.planner, heuristic=self.options.heuristic)
+        return confirmed_search(world, goal, actions, config, mutexes=mutexes, limits=Limits(time_s=seconds))
+
+    def _give_up(self, reason: str) -> bool:
+        self.gave_up = reason  # reported by the caller (the run's result, the command's output)
+        log.info("%s", reason)
+        return False
+
+
+@dataclass(frozen=True)
+class ReplanningRun:
+    """A run with re-planning: the executor's run, the re-plans, and why it stopped re-planning."""
+
+    run: Run
+    replans: tuple[Replan, ...]
+    gave_up: str | None = None
+
+    @property
+    def replanning_s(self) -> float:
+        return sum(r.seconds for r in self.replans)
+
+    def reached(self, goal_ids: frozenset[int]) -> bool:
+        return self.run.reached(goal_ids)
+
+
+def run_replanning(
+    scenario: Scenario,
+    goal: Goal,
+    tree: Node,
+    *,
+    max_ticks: int,
+    disturbance: Disturbance | None = None,
+    options: ReplanOptions = ReplanOptions(),
+    state: State | None = None,
+    trace: bool = False,
+) -> ReplanningRun:
+    """Run ``tree`` in the symbolic world from ``state`` (default s0), re-planning when it fails."""
+    policy = Replanner(scenario, goal, tree, options)
+    tracer = Trace(scenario.task) if trace else None
+    run = execute(
+        policy,
+        scenario.task,
+        state,
+        max_ticks=max_ticks,
+        disturbance=disturbance,
+        observers=(tracer,) if tracer else (),
+    )
+    if tracer is not None:
+        run = dataclasses.replace(run, trace=tuple(tracer.steps))
+    return ReplanningRun(run, tuple(policy.replans), policy.gave_up)
+
+
+# ============================================================ on a robot
+#: An action's implementation: called once per tick while the action runs.
+ActionCallback = Callable[..., Any]
+#: Returns the literals that hold now (``IsIn(milk,fridge)`` or ``IsIn_milk_fridge``).
+StateObserver = Callable[[], Iterable[str]]
+
+_STATUS = {"success": NodeStatus.SUCCESS, "failure": NodeStatus.FAILURE, "running": NodeStatus.RUNNING}
+
+
+@dataclass
+class RuntimeReport:
+    """What a :class:`Runtime` run did: how it ended, its ticks, the actions called, the re-plans."""
+
+    status: NodeStatus
+    reason: str
+    ticks: int
+    called: list[str] = field(default_factory=list)
+    failures: int = 0
+    replans: tuple[Replan, ...] = ()
+    trace: list[TraceStep] = field(default_factory=list)
+
+    @property
+    def succeeded(self) -> bool:
+        return self.status is NodeStatus.SUCCESS
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "status": self.status.value,
+            "reason": self.reason,
+            "ticks": self.ticks,
+            "called": self.called,
+            "failures": self.failures,
+            "replans": [r.to_dict() for r in self.replans],
+            "trace": [s.to_dict() for s in self.trace],
+        }
+
+
+class Runtime:
+    """Ticks a planned tree against the user's actions and observer, re-planning when needed.
+
+    ``actions`` maps an action name (``RightGrab(apple)``) or an action predicate (``RightGrab``,
+    called with the objects as arguments) to its implementation. ``tree`` defaults to a tree
+    planned now from the observed state.
+    """
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        goal: Goal | str,
+        actions: Mapping[str, ActionCallback],
+        observe: StateObserver,
+        *,
+        tree: Node | None = None,
+        options: ReplanOptions = ReplanOptions(),
+        max_failures: int = 3,
+        tick_timeout_s: float = 10.0,
+    ) -> None:
+        task = scenario.task
+        self.task = task
+        self.goal = task.resolve_goal(goal) if isinstance(goal, str) else goal
+        self.callbacks = _callbacks(task, actions)
+        self.observe = observe
+        self.max_failures = max_failures
+        self.tick_timeout_s = tick_timeout_s
+        self.scenario = scenario
+        self.options = options
+        self.tree = tree
+
+    def run(self, max_ticks: int = 1000) -> RuntimeReport:
+        """Tick until the goal holds, the tree fails for good, or ``max_ticks`` ticks."""
+        state = self._observed()
+        replanner = Replanner(self.scenario, self.goal, self.tree or _empty_tree(), self.options)
+        if self.tree is None and not replanner.replan(state, "the first plan, from the observed state"):
+            return RuntimeReport(NodeStatus.FAILURE, replanner.gave_up or "", 0, replans=tuple(replanner.replans))
+        report = RuntimeReport(NodeStatus.RUNNING, f"{max_ticks} ticks without reaching the goal", 0)
+        failures: dict[int, int] = {}
+        for tick in range(1, max_ticks + 1):
+            state = state if tick == 1 else self._observed()
+            status, action = replanner(state)
+            report.ticks = tick
+            report.trace.append(TraceStep(tick, tuple(self.task.names(state)), status, self._name(action), None))
+            if status is not NodeStatus.RUNNING:
+                report.status = status
+                report.reason = "the goal holds" if status is NodeStatus.SUCCESS else (replanner.gave_up or "")
+                break
+            assert action is not None
+            report.called.append(self.task.actions[action].name)
+            outcome = self._call(action)
+            if outcome is NodeStatus.FAILURE:
+                report.failures += 1
+                failures[action] = failures.get(action, 0) + 1
+                if failures[action] >= self.max_failures:
+                    reason = f"{self.task.actions[action].name} failed {failures[action]} times in a row"
+                    failures[action] = 0
+                    if not replanner.replan(state, reason, without=(action,)):
+                        report.status, report.reason = NodeStatus.FAILURE, replanner.gave_up or reason
+                        break
+            else:
+                failures[action] = 0
+        report.replans = tuple(replanner.replans)
+        return report
+
+    def _name(self, action: int | None) -> str | None:
+        return None if action is None else self.task.actions[action].name
+
+    def _observed(self) -> State:
+        try:
+            literals = list(self.observe())
+        except Exception as error:  # the user's code: any failure ends the run with its message
+            raise RuntimeFailure(f"the state observer failed: {type(error).__name__}: {error}") from error
+        ids: set[int] = set()
+        unknown: list[str] = []
+        for literal in literals:
+            try:
+                ids.add(self.task.atom_id(str(literal)))
+            except InputError:
+                unknown.append(str(literal))
+        if unknown:
+            raise RuntimeFailure(
+                f"the state observer returned literal(s) the domain does not have: {', '.join(unknown[:5])}"
+            )
+        return frozenset(ids)
+
+    def _call(self, action: int) -> NodeStatus:
+        """Call the action's implementation within ``tick_timeout_s``; anything but success or
+        running counts as a failure."""
+        ground = self.task.actions[action]
+        callback, args = self.callbacks[action]
+        box: list[Any] = []
+
+        def target() -> None:
+            try:
+                box.append(callback(*args))
+            except Exception as error:  # the user's code: a failure of the action, logged
+                box.append(error)
+
+        worker = threading.Thread(target=target, name=f"hbtp-action-{ground.name}", daemon=True)
+        worker.start()
+        worker.join(self.tick_timeout_s)
+        if worker.is_alive():
+            raise RuntimeFailure(f"action {ground.name} did not return within {self.tick_timeout_s:g} s")
+        answer = box[0] if box else None
+        status = _status(answer)
+        if status is None:
+            log.warning("action %s answered %r: counted as a failure", ground.name, answer)
+            return NodeStatus.FAILURE
+        return status
+
+
+def _status(answer: Any) -> NodeStatus | None:
+    if isinstance(answer, NodeStatus):
+        return answer
+    if isinstance(answer, bool):
+        return NodeStatus.SUCCESS if answer else NodeStatus.FAILURE
+    if isinstance(answer, str):
+        return _STATUS.get(answer.strip().lower())
+    return None
+
+
+def _callbacks(
+    task: GroundTask, actions: Mapping[str, ActionCallback]
+) -> dict[int, tuple[ActionCallback, tuple[str, ...]]]:
+    """Each ground action's implementation: by its name, else by its predicate (with its objects)."""
+    by_name: dict[int, ActionCallback] = {}
+    by_predicate: dict[str, ActionCallback] = {}
+    predicates = set(task.action_predicates)
+    for key, callback in actions.items():
+        if not callable(callback):
+            raise InputError(f"the implementation of {key!r} is not callable")
+        if key in predicates:
+            by_predicate[key] = callback
+            continue
+        try:
+            by_name[task.action(parse_atom(key)).index] = callback
+        except InputError as error:
+            raise InputError(f"no action or action predicate {key!r} in {task.name}: {error}") from None
+    table: dict[int, tuple[ActionCallback, tuple[str, ...]]] = {}
+    for ground in task.actions:
+        if ground.index in by_name:
+            table[ground.index] = (by_name[ground.index], ())
+        elif ground.predicate in by_predicate:
+            table[ground.index] = (by_predicate[ground.predicate], tuple(ground.objects))
+    return _complete(task, table)
+
+
+def _complete(
+    task: GroundTask, table: dict[int, tuple[ActionCallback, tuple[str, ...]]]
+) -> dict[int, tuple[ActionCallback, tuple[str, ...]]]:
+    """Actions without an implementation fail when called (logged once each)."""
+    warned: set[str] = set()
+
+    def missing(name: str) -> ActionCallback:
+        def fail(*_: str) -> NodeStatus:
+            if name not in warned:
+                warned.add(name)
+                log.warning("no implementation for %s: it fails", name)
+            return NodeStatus.FAILURE
+
+        return fail
+
+    for ground in task.actions:
+        table.setdefault(ground.index, (missing(ground.name), ()))
+    return table
+
+
+def _empty_tree() -> Node:
+    """A tree that always fails (the first tick re-plans)."""
+    return Fallback(())
+
+
+# ============================================================ robustness
+def replanning_runs(
+    scenario: Scenario,
+    goal: Goal,
+    tree: Node,
+    p: float,
+    runs: int,
+    seed: int = 0,
+    *,
+    max_ticks: int = DEFAULT_MAX_TICKS,
+    options: ReplanOptions = ReplanOptions(),
+    trace: bool = False,
+) -> list[ReplanningRun]:
+    """``runs`` runs with re-planning under the seeded disturbances of
+    :func:`hbtp.bt.disturb.disturbed_runs` (run ``i`` meets the same random numbers as there)."""
+    check_probability(p)
+    model = event_model(scenario.task, scenario.mutexes)
+    results: list[ReplanningRun] = []
+    for index in range(runs):
+        disturbance = RandomDisturbance(model, p, random.Random(run_seed(seed, index)))
+        results.append(
+            run_replanning(
+                scenario, goal, tree, max_ticks=max_ticks, disturbance=disturbance, options=options, trace=trace
+            )
+        )
+    return results
+
+
+def replanning_summary(base: Run, results: Sequence[ReplanningRun], goal: Goal) -> dict[str, Any]:
+    """:func:`hbtp.bt.disturb.summarise_runs` of the runs, plus the re-plans per run, their times,
+    and the runs that ended because the goal could no longer be reached (``unsolvable_runs``)."""
+    stats = summarise_runs(base, [r.run for r in results], goal.ids)
+    unsolvable = [r for r in results if r.gave_up is not None and r.gave_up.startswith(UNSOLVABLE_FROM_STATE)]
+    reachable = [r for r in results if r not in unsolvable]
+    times = [replan.seconds for r in results for replan in r.replans]
+    stats.update(
+        replans=sum(len(r.replans) for r in results),
+        mean_replans=round(statistics.fmean(len(r.replans) for r in results), 6) if results else None,
+        median_replan_ms=round(1000 * statistics.median(times), 3) if times else None,
+        max_replan_ms=round(1000 * max(times), 3) if times else None,
+        unsolvable_runs=len(unsolvable),
+        success_rate_reachable=(
+            round(sum(r.reached(goal.ids) for r in reachable) / len(reachable), 6) if reachable else None
+        ),
+    )
+    return stats
+
+
+def replanning_stats(
+    scenario: Scenario,
+    goal: Goal,
+    tree: Node,
+    p: float,
+    runs: int,
+    seed: int = 0,
+    max_ticks: int = DEFAULT_MAX_TICKS,
+    options: ReplanOptions = ReplanOptions(),
+) -> dict[str, Any]:
+    """:func:`hbtp.bt.disturb.perturbation_stats` with re-planning (see :func:`replanning_summary`)."""
+    base = simulate(tree, scenario.task, max_ticks=max_ticks)
+    results = replanning_runs(scenario, goal, tree, p, runs, seed, max_ticks=max_ticks, options=options)
+    return {"p": p, "seed": seed, **replanning_summary(base, results, goal)}
