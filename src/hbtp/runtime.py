@@ -163,7 +163,7 @@ class Replanner:
         return True
 
     def _plan(self, state: State, seconds: float) -> PlanResult:
-        world = dataclasses.replace(self.task, initial_state=frozenset(state))
+        world = self.task.from_state(state)
         goal = world.resolve_goal(self.goal.atoms)
         actions: Sequence[GroundAction] = world.actions
         if self.excluded:

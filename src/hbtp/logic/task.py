@@ -10,6 +10,7 @@ States and conditions are ``frozenset[int]`` of atom ids; :class:`Atom` names ar
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 from collections.abc import Callable, Hashable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -130,6 +131,20 @@ class GroundTask:
             if len(fact.args) == 1:
                 table.setdefault(fact.predicate, []).append(fact.args[0])
         return {name: tuple(sorted(members)) for name, members in sorted(table.items())}
+
+    #: The lookups above that do not depend on s0 (kept by :meth:`from_state`).
+    _STATE_FREE = (
+        "atom_ids", "action_ids", "action_predicates", "achievers", "symbols", "static_arities", "categories"
+    )  # fmt: skip
+
+    def from_state(self, state: Iterable[int]) -> GroundTask:
+        """The same task starting in ``state`` (re-planning from an observed state), sharing the
+        lookups that do not depend on s0; the per-task index starts empty (its tables may)."""
+        task = dataclasses.replace(self, initial_state=frozenset(state))
+        for name in self._STATE_FREE:
+            if name in self.__dict__:
+                task.__dict__[name] = self.__dict__[name]
+        return task
 
     # ------------------------------------------------------ the per-task index
     @cached_property

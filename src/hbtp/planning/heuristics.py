@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Collection, Iterable, Mapping, Sequence
+from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
 from typing import Literal, Protocol
 
 from hbtp.deadline import Deadline
@@ -97,31 +97,46 @@ def hmax_table(
 def landmark_table(
     task: GroundTask, actions: Sequence[GroundAction], reachable: Sequence[float], deadline: Deadline | None = None
 ) -> list[frozenset[int] | None]:
-    """For each atom id, its fact landmarks from s0 (``None`` when unreachable)."""
+    """For each atom id, its fact landmarks from s0 (``None`` when unreachable).
+
+    The greatest fixpoint of ``LM(f) = {f} | ⋂ over the achievers a of f of ⋃ LM(pre(a))`` (``LM``
+    of an s0 atom: itself), reached from "every atom" downwards: one pass over the usable actions
+    in order of their h_max, then only the actions whose precondition's landmarks changed."""
     table: list[frozenset[int] | None] = [None] * len(task.atoms)
     for atom in task.initial_state:
         table[atom] = frozenset((atom,))
     usable = [a for a in actions if all(not math.isinf(reachable[p]) for p in a.pre)]
     usable.sort(key=lambda a: (max((reachable[p] for p in a.pre), default=0.0), a.index))
-    changed = True
-    while changed:
-        changed = False
-        for position, action in enumerate(usable):
-            if deadline is not None and position & 255 == 0:
-                deadline.check(_SETUP)
-            parts = [table[p] for p in action.pre]
-            if any(part is None for part in parts):
+    users: dict[int, list[int]] = {}
+    for position, action in enumerate(usable):
+        for atom in action.pre:
+            users.setdefault(atom, []).append(position)
+    queued = [True] * len(usable)
+    pending = list(range(len(usable) - 1, -1, -1))  # popped from the end: the first pass in order
+    steps = 0
+    while pending:
+        position = pending.pop()
+        queued[position] = False
+        steps += 1
+        if deadline is not None and steps & 255 == 0:
+            deadline.check(_SETUP)
+        action = usable[position]
+        parts = [table[p] for p in action.pre]
+        if any(part is None for part in parts):
+            continue
+        needed: frozenset[int] = frozenset().union(*parts) if parts else frozenset()  # type: ignore[arg-type]
+        for atom in action.add:
+            old, new = table[atom], needed | {atom}
+            if old is None:
+                table[atom] = new
+            elif not old <= new:
+                table[atom] = old & new
+            else:
                 continue
-            needed: frozenset[int] = frozenset().union(*parts) if parts else frozenset()  # type: ignore[arg-type]
-            for atom in action.add:
-                new = needed | {atom}
-                old = table[atom]
-                if old is None:
-                    table[atom] = new
-                    changed = True
-                elif not old <= new:
-                    table[atom] = old & new
-                    changed = True
+            for user in users.get(atom, ()):
+                if not queued[user]:
+                    queued[user] = True
+                    pending.append(user)
     return table
 
 
@@ -154,15 +169,40 @@ class SpaceAnalysis:
         self.landmarks = landmark_table(task, actions, self.hmax, deadline)
         self.pre_atoms: frozenset[int] = frozenset().union(*(a.pre for a in actions)) if actions else frozenset()
         self.shares = landmark_costs(task, actions, self.pre_atoms)
-        s0 = task.initial_state
-        # For each action, the landmarks of its precondition that s0 lacks (None: a dead end).
-        self.pre_landmarks: dict[int, frozenset[int] | None] = {}
-        for action in actions:
-            parts = [self.landmarks[p] for p in action.pre]
-            if any(part is None for part in parts):
-                self.pre_landmarks[action.index] = None
-            else:
-                self.pre_landmarks[action.index] = frozenset().union(*parts) - s0  # type: ignore[arg-type]
+        # For each action, the landmarks of its precondition that s0 lacks (None: a dead end),
+        # computed when the search first asks (it asks for few of the actions).
+        self.pre_landmarks = PreconditionLandmarks(task, actions, self.landmarks)
+
+
+class PreconditionLandmarks(Mapping[int, "frozenset[int] | None"]):
+    """By action index: the landmarks of the action's precondition that s0 lacks (``None``: a dead
+    end), each computed when first asked for."""
+
+    def __init__(
+        self, task: GroundTask, actions: Sequence[GroundAction], landmarks: Sequence[frozenset[int] | None]
+    ) -> None:
+        self.task = task
+        self.indices = frozenset(a.index for a in actions)
+        self.landmarks = landmarks
+        self.known: dict[int, frozenset[int] | None] = {}
+
+    def __getitem__(self, index: int) -> frozenset[int] | None:
+        if index in self.known:
+            return self.known[index]
+        if index not in self.indices:
+            raise KeyError(index)
+        parts = [self.landmarks[p] for p in self.task.actions[index].pre]
+        value: frozenset[int] | None = None
+        if all(part is not None for part in parts):
+            value = frozenset().union(*parts) - self.task.initial_state  # type: ignore[arg-type]
+        self.known[index] = value
+        return value
+
+    def __iter__(self) -> Iterator[int]:
+        return iter(sorted(self.indices))
+
+    def __len__(self) -> int:
+        return len(self.indices)
 
 
 #: How many analyses of pruned action spaces a task keeps (the most recent ones): a planner comparison
