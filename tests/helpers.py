@@ -15,10 +15,8 @@ import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
-from typing import Any
 
 from hbtp.bt import Condition, Fallback, Node, NodeStatus, tick
-from hbtp.bt.btcpp import used_node_ids
 from hbtp.bt.verify import verify
 from hbtp.domains import DomainBuilder, load_scenario
 from hbtp.logic.task import Goal, GroundTask
@@ -193,59 +191,6 @@ def without_ports(xml_text: str) -> str:
         element.text = element.tail = None
     ET.indent(root, space="  ")
     return ET.tostring(root, encoding="unicode")
-
-
-class SymbolicEngine:
-    """BT.CPP node callbacks backed by hbtp's symbolic state.
-
-    Conditions succeed iff their literal holds. An action whose preconditions hold applies its effects
-    and returns RUNNING (a stateful action: on_start and on_running alike), as in hbtp's own ticking;
-    the reactive parents then restart from the goal on the next tick, so the root succeeds exactly
-    when the goal holds. Leaves are identified by their grounded ``name``: behaviortreepy 0.1.4
-    registers callbacks without ports.
-    """
-
-    def __init__(self, bt: Any, task: GroundTask, tree: Node) -> None:
-        self.bt = bt
-        self.task = task
-        self.state = task.initial_state
-        self.executed: list[int] = []
-        self.errors: list[str] = []  # the binding turns a Python exception into FAILURE: collect them
-        self.factory = bt.BehaviorTreeFactory()
-        conditions, actions = used_node_ids(tree, task)
-        for node_id in conditions:
-            self.factory.register_simple_condition(node_id, self.condition)
-        for node_id in actions:
-            self.factory.register_simple_stateful_action(node_id, self.action, self.action)
-
-    def condition(self, node: Any) -> Any:
-        try:
-            holds = self.task.atom_id(node.name()) in self.state
-        except Exception as error:
-            self.errors.append(repr(error))
-            raise
-        return self.bt.NodeStatus.SUCCESS if holds else self.bt.NodeStatus.FAILURE
-
-    def action(self, node: Any) -> Any:
-        try:
-            grounded = self.task.action(node.name())
-        except Exception as error:
-            self.errors.append(repr(error))
-            raise
-        if not grounded.applicable(self.state):
-            return self.bt.NodeStatus.FAILURE
-        self.state = grounded.progress(self.state)
-        self.executed.append(grounded.index)
-        return self.bt.NodeStatus.RUNNING
-
-    def run(self, xml_text: str, max_ticks: int = 200) -> Any:
-        tree = self.factory.create_tree_from_text(xml_text)
-        status = self.bt.NodeStatus.IDLE
-        for _ in range(max_ticks):
-            status = tree.tick_once()
-            if status != self.bt.NodeStatus.RUNNING:
-                break
-        return status
 
 
 # ------------------------------------------------------------------------------ a small shared task

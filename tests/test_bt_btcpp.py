@@ -2,20 +2,30 @@
 
 from __future__ import annotations
 
+import importlib
+import json
+import random
 import re
 import xml.etree.ElementTree as ET
+from pathlib import Path
 from typing import Any
 
 import pytest
 
 from hbtp.bt import Action, Condition, Fallback, Node, Sequence, tree_of
 from hbtp.bt.btcpp import BUILTIN_IDS, node_ids, tree_from_btcpp, tree_to_btcpp, used_node_ids
+from hbtp.bt.btcpp_engine import BtcppEngine, btcpp_binding
+from hbtp.bt.disturb import RandomDisturbance, event_model
+from hbtp.bt.export import export_tree
+from hbtp.bt.simulate import simulate
+from hbtp.cli import main
 from hbtp.domains import DomainBuilder, load_scenario
 from hbtp.errors import InputError
+from hbtp.logic.execution import NodeStatus
 from hbtp.logic.task import GroundTask
 from hbtp.planning import plan
 from hbtp.planning.result import PlanResult
-from helpers import SymbolicEngine, plan_goals, run_tree, without_ports
+from helpers import plan_goals, run_tree, without_ports
 
 GOALS = {
     "robowaiter": ("On_Water_Table1", "On_Dessert_Bar & Low_ACTemperature"),
@@ -24,6 +34,7 @@ GOALS = {
     "robothow": ("IsIn_milk_fridge", "IsClose_window & IsOpen_door"),
 }
 CASES = [(scenario, goal, kind) for scenario, goals in GOALS.items() for goal in goals for kind in ("full", "path")]
+CASES_GOAL = GOALS["robothow-small"][0]
 WRITER_OPTIONS: list[dict[str, Any]] = [
     {},
     {"ports": False},
@@ -239,29 +250,70 @@ def test_reader_accepts_hand_written_forms(small: tuple[GroundTask, Node]) -> No
 def test_behaviortree_cpp_ticks_the_exported_tree_to_the_goal(
     planned: Any, scenario: str, goal: str, kind: str
 ) -> None:
-    bt = pytest.importorskip("behaviortreepy")
+    pytest.importorskip("behaviortreepy")
     task, result = planned[scenario, goal]
     tree = tree_of(result, kind)
     ours = run_tree(tree, task, task.initial_state, max_ticks=200)
     assert ours.reached
     assert ours.actions == result.executed
 
-    xml_text = tree_to_btcpp(tree, task, ports=False)
-    engine = SymbolicEngine(bt, task, tree)
-    status = engine.run(xml_text)
-    assert engine.errors == []
-    assert status == bt.NodeStatus.SUCCESS
-    assert tuple(engine.executed) == result.executed
-    assert result.goal.ids <= engine.state
+    engine = BtcppEngine(tree, task)
+    assert engine.xml == export_tree(tree, task, "btcpp-named")  # the exported file itself is ticked
+    run = engine.run(max_ticks=200)
+    assert run.status is NodeStatus.SUCCESS
+    assert run.executed == result.executed
+    assert result.goal.ids <= run.final_state
     # the default export differs from what the engine ran only by its ports
-    assert without_ports(tree_to_btcpp(tree, task)) == without_ports(xml_text)
+    assert without_ports(tree_to_btcpp(tree, task)) == without_ports(engine.xml)
 
 
 def test_behaviortree_cpp_rejects_unregistered_ids_and_loads_every_layout(small: tuple[GroundTask, Node]) -> None:
     bt = pytest.importorskip("behaviortreepy")
     task, tree = small
-    engine = SymbolicEngine(bt, task, tree)
+    engine = BtcppEngine(tree, task)
     # the explicit <Condition ID=...> form loads under plain Sequence/Fallback
     engine.factory.create_tree_from_text(tree_to_btcpp(tree, task, ports=False, explicit_leaves=True, reactive=False))
     with pytest.raises(RuntimeError):
         bt.BehaviorTreeFactory().create_tree_from_text(tree_to_btcpp(tree, task, ports=False))
+
+
+def test_behaviortree_cpp_runs_match_the_simulator_under_disturbances(planned: Any) -> None:
+    pytest.importorskip("behaviortreepy")
+    scenario = load_scenario("robothow-small")
+    task, result = planned["robothow-small", CASES_GOAL]
+    model = event_model(task, scenario.mutexes)
+    engine = BtcppEngine(tree_of(result), task)
+    for index in range(12):
+        ours = simulate(
+            tree_of(result), task, max_ticks=100, disturbance=RandomDisturbance(model, 0.3, random.Random(index))
+        )
+        theirs = engine.run(max_ticks=100, disturbance=RandomDisturbance(model, 0.3, random.Random(index)))
+        assert theirs == ours
+
+
+def test_hbtp_run_with_the_btcpp_engine(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    pytest.importorskip("behaviortreepy")
+    tree = tmp_path / "tree.json"
+    assert main(["plan", "-s", "robothow-small", "-g", CASES_GOAL, "-o", str(tree)]) == 0
+    capsys.readouterr()
+    argv = ["run", str(tree), "--perturb", "0.3", "--runs", "8", "--json"]
+    assert main(argv) in (0, 1)
+    ours = json.loads(capsys.readouterr().out)
+    assert main([*argv, "--engine", "btcpp"]) in (0, 1)
+    theirs = json.loads(capsys.readouterr().out)
+    assert theirs["engine"] == "btcpp"
+    assert [r["executed"] for r in theirs["results"]] == [r["executed"] for r in ours["results"]]
+    assert main(["run", str(tree), "--engine", "btcpp", "--replan", "2"]) == 2
+
+
+def test_the_btcpp_engine_says_how_to_install_the_binding(monkeypatch: pytest.MonkeyPatch) -> None:
+    real = importlib.import_module
+
+    def refuse(name: str, *args: Any) -> Any:
+        if name == "behaviortreepy":
+            raise ImportError(name)
+        return real(name, *args)
+
+    monkeypatch.setattr(importlib, "import_module", refuse)
+    with pytest.raises(InputError, match=r"pip install 'hbtp\[btcpp\]'"):
+        btcpp_binding()

@@ -217,7 +217,7 @@ def test_write_export_and_read_tree(tmp_path: Path, planned_tree: tuple[GroundTa
 
 def test_registry_formats_and_extensions(planned_tree: tuple[GroundTask, Node]) -> None:
     task, tree = planned_tree
-    assert list(FORMATS) == ["btcpp", "pytrees", "dot", "svg", "png", "mermaid", "json", "text"]
+    assert list(FORMATS) == ["btcpp", "btcpp-named", "pytrees", "dot", "svg", "png", "mermaid", "json", "text"]
     assert {ext: format_from_extension(f"x{ext}") for fmt in FORMATS.values() for ext in fmt.extensions} == {
         ".xml": "btcpp",
         ".py": "pytrees",
@@ -231,7 +231,7 @@ def test_registry_formats_and_extensions(planned_tree: tuple[GroundTask, Node]) 
         ".txt": "text",
     }
     assert format_from_extension("TREE.XML") == "btcpp"
-    for fmt in ("btcpp", "pytrees", "dot", "mermaid", "json", "text"):
+    for fmt in ("btcpp", "btcpp-named", "pytrees", "dot", "mermaid", "json", "text"):
         first = export_tree(tree, task, fmt, scenario="robothow-small", goal=GOAL)
         assert isinstance(first, str)
         assert first

@@ -9,15 +9,15 @@ from typing import Any
 import pytest
 
 from hbtp.bt import tree_of
-from hbtp.bt.btcpp import tree_to_btcpp
+from hbtp.bt.btcpp_engine import BtcppEngine
 from hbtp.bt.pytrees_export import SymbolicWorld, build_pytrees, tick_to_goal
 from hbtp.bt.simulate import simulate
 from hbtp.bt.verify import verify
 from hbtp.datasets import DATASET_SCENARIO, dataset_names, load_dataset, validate_records
 from hbtp.domains import load_scenario
 from hbtp.llm.parse import hints_from_record
+from hbtp.logic.execution import NodeStatus
 from hbtp.planning import PLANNERS, Limits, plan
-from helpers import SymbolicEngine
 
 
 @pytest.mark.slow
@@ -66,9 +66,7 @@ def _check_pytrees(py_trees: Any, tree: Any, task: Any, goal: frozenset[int], ex
 
 
 def _check_btcpp(bt: Any, tree: Any, task: Any, goal: frozenset[int], executed: Any, where: str) -> None:
-    engine = SymbolicEngine(bt, task, tree)
-    status = engine.run(tree_to_btcpp(tree, task, ports=False))
-    assert engine.errors == [], f"{where}: BT.CPP callbacks raised {engine.errors}"
-    assert status == bt.NodeStatus.SUCCESS, f"{where}: BT.CPP"
-    assert goal <= engine.state, f"{where}: BT.CPP goal"
-    assert tuple(engine.executed) == tuple(executed), f"{where}: BT.CPP actions"
+    run = BtcppEngine(tree, task).run(max_ticks=200)  # the btcpp-named export, ticked by BT.CPP
+    assert run.status is NodeStatus.SUCCESS, f"{where}: BT.CPP"
+    assert goal <= run.final_state, f"{where}: BT.CPP goal"
+    assert tuple(run.executed) == tuple(executed), f"{where}: BT.CPP actions"

@@ -57,6 +57,13 @@ FORMATS: dict[str, ExportFormat] = {
             lambda tree, task, scenario, goal: tree_to_btcpp(tree, task, scenario=scenario, goal=goal),
         ),
         ExportFormat(
+            "btcpp-named",
+            "BehaviorTree.CPP v4 XML without ports, the grounded literal in each leaf's name "
+            "(loads as is in behaviortreepy, whose Python nodes have no ports; hbtp run --engine btcpp)",
+            (),
+            lambda tree, task, scenario, goal: tree_to_btcpp(tree, task, scenario=scenario, goal=goal, ports=False),
+        ),
+        ExportFormat(
             "pytrees",
             "a standalone Python module that rebuilds the tree with py_trees",
             (".py",),

@@ -22,7 +22,10 @@ from hbtp.files import write_atomically
 
 F = TypeVar("F", bound=Callable[..., Any])
 
-FORMAT_HELP = "; ".join(f"{fmt.name}: {fmt.description} ({'/'.join(fmt.extensions)})" for fmt in FORMATS.values())
+FORMAT_HELP = "; ".join(
+    f"{fmt.name}: {fmt.description}" + (f" ({'/'.join(fmt.extensions)})" if fmt.extensions else " (give --format)")
+    for fmt in FORMATS.values()
+)
 
 
 def export_options(function: F) -> F:

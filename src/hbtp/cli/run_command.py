@@ -13,18 +13,21 @@ from __future__ import annotations
 
 import functools
 import logging
+import random
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
 
 import click
 
-from hbtp.bt.disturb import check_probability, disturbed_runs, summarise_runs
+from hbtp.bt.btcpp_engine import BtcppEngine
+from hbtp.bt.disturb import RandomDisturbance, check_probability, disturbed_runs, event_model, run_seed, summarise_runs
 from hbtp.bt.jsonio import goal_text
 from hbtp.bt.simulate import DEFAULT_MAX_TICKS, Run, simulate, trace_to_jsonl
 from hbtp.bt.verify import verify
 from hbtp.cli.exit_codes import CommandError, ExitCode, command_error
-from hbtp.cli.options import ScenarioSource, echo_json, scenario_options, write_files_atomically
+from hbtp.cli.options import ScenarioSource, echo_json, option_group, scenario_options, write_files_atomically
 from hbtp.cli.tree_input import TreeInput, load_tree_input
 from hbtp.errors import HbtpError, InputError
 from hbtp.logic.task import GroundTask
@@ -101,49 +104,80 @@ def _number(value: Any, sign: bool = False) -> str:
     return f"{value:+.2f}" if sign else f"{value:.2f}"
 
 
+@dataclass(frozen=True)
+class RunRequest:
+    """What ``hbtp run`` was asked to do with the tree."""
+
+    perturb: float
+    runs: int
+    seed: int
+    max_ticks: int
+    replan: int
+    engine: str
+    trace_file: str | None
+    as_json: bool
+
+
+run_options = option_group(
+    "request",
+    RunRequest,
+    click.option(
+        "--perturb", type=float, default=0.0, show_default=True, help="Probability of an event before each tick."
+    ),
+    click.option("--runs", type=int, default=1, show_default=True, help="Perturbed runs (with --perturb)."),
+    click.option("--seed", type=int, default=0, show_default=True, help="Seed of the perturbations."),
+    click.option(
+        "--max-ticks", type=int, default=DEFAULT_MAX_TICKS, show_default=True, help="Give up after this many."
+    ),
+    click.option(
+        "--replan",
+        type=click.IntRange(0),
+        default=0,
+        show_default=True,
+        help="Re-plan from the state (OBTEA, landmark heuristic) when no condition of the tree holds, "
+        "at most this many times per run; 0: never.",
+    ),
+    click.option(
+        "--engine",
+        type=click.Choice(["hbtp", "btcpp"]),
+        default="hbtp",
+        show_default=True,
+        help="Who ticks the tree: hbtp's executor, or BehaviorTree.CPP itself (behaviortreepy; the tree as "
+        "exported with --format btcpp-named), with the same symbolic world and disturbances.",
+    ),
+    click.option("--trace", "trace_file", type=click.Path(dir_okay=False), help="Write a tick-by-tick JSONL trace."),
+    click.option("--json", "as_json", is_flag=True, help="Print the result as JSON."),
+)
+
+
 @click.command("run")
 @click.argument("tree_file", type=click.Path(dir_okay=False))
 @scenario_options
 @click.option("-g", "--goal", "goal_option", help="Goal to reach (default: the goal stored in the tree file).")
-@click.option("--perturb", type=float, default=0.0, show_default=True, help="Probability of an event before each tick.")
-@click.option("--runs", type=int, default=1, show_default=True, help="Perturbed runs (with --perturb).")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the perturbations.")
-@click.option("--max-ticks", type=int, default=DEFAULT_MAX_TICKS, show_default=True, help="Give up after this many.")
-@click.option(
-    "--replan",
-    type=click.IntRange(0),
-    default=0,
-    show_default=True,
-    help="Re-plan from the state (OBTEA, landmark heuristic) when no condition of the tree holds, "
-    "at most this many times per run; 0: never.",
-)
-@click.option("--trace", "trace_file", type=click.Path(dir_okay=False), help="Write a tick-by-tick JSONL trace.")
-@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+@run_options
 @exit_codes
-def run_command(
-    tree_file: str,
-    source: ScenarioSource,
-    goal_option: str | None,
-    perturb: float,
-    runs: int,
-    seed: int,
-    max_ticks: int,
-    replan: int,
-    trace_file: str | None,
-    as_json: bool,
-) -> int:
+def run_command(tree_file: str, source: ScenarioSource, goal_option: str | None, request: RunRequest) -> int:
     """Run the tree of TREE_FILE from s0 (with random external events under --perturb).
 
     Exit code 0 when the goal was reached (in every run), 1 when not, 2 on bad input. Without a goal
     (none given, none in the file) a run succeeds when the root returns SUCCESS.
     """
-    _check_options(perturb, runs, max_ticks)
+    _check_options(request.perturb, request.runs, request.max_ticks)
     read = load_tree_input(tree_file, source, goal_option)
-    if replan:
-        return _run_replanning(read, tree_file, perturb, runs, seed, max_ticks, replan, trace_file, as_json)
-    task = read.scenario.task
+    if request.engine == "btcpp":
+        if request.replan or request.trace_file:
+            raise InputError("--engine btcpp does not go with --replan or --trace (hbtp's executor does both)")
+        return _run_btcpp(read, tree_file, request)
+    if request.replan:
+        return _run_replanning(read, tree_file, request)
+    return _run_hbtp(read, tree_file, request)
+
+
+def _run_hbtp(read: TreeInput, tree_file: str, request: RunRequest) -> int:
+    """The tree ticked by hbtp's executor: once, or ``--runs`` times under ``--perturb``."""
+    task, perturb, trace_file = read.scenario.task, request.perturb, request.trace_file
     goal_ids = read.goal.ids if read.goal is not None else frozenset()
-    base = simulate(read.tree, task, max_ticks=max_ticks, trace=trace_file is not None and perturb == 0)
+    base = simulate(read.tree, task, max_ticks=request.max_ticks, trace=trace_file is not None and perturb == 0)
     header: dict[str, Any] = {
         "tree": tree_file,
         "scenario": read.scenario.name,
@@ -152,46 +186,31 @@ def run_command(
     if perturb == 0:
         reached = base.reached(goal_ids)
         _write_traces(trace_file, [base], task, numbered=False)
-        if as_json:
+        if request.as_json:
             echo_json({**header, "reached": reached, **base.to_dict(task)})
         else:
             click.echo(_describe_run(base, reached))
             click.echo("executes: " + abbreviate_steps([task.actions[i].name for i in base.executed]))
         return EXIT_OK if reached else EXIT_FAILED
     results = disturbed_runs(
-        read.tree, task, read.scenario.mutexes, perturb, runs, seed, max_ticks=max_ticks, trace=trace_file is not None
-    )
+        read.tree, task, read.scenario.mutexes, perturb, request.runs, request.seed,
+        max_ticks=request.max_ticks, trace=trace_file is not None,
+    )  # fmt: skip
     stats = summarise_runs(base, results, goal_ids)
     _write_traces(trace_file, results, task, numbered=True)
-    if as_json:
-        echo_json(
-            {
-                **header,
-                "p": perturb,
-                "seed": seed,
-                "reached": stats["successes"] == len(results),
-                **stats,
-                "base": base.to_dict(task),
-                "results": [{"reached": r.reached(goal_ids), **r.to_dict(task)} for r in results],
-            }
-        )
+    if request.as_json:
+        rows = [{"reached": r.reached(goal_ids), **r.to_dict(task)} for r in results]
+        settings = {"p": perturb, "seed": request.seed, "reached": stats["successes"] == len(results)}
+        echo_json({**header, **settings, **stats, "base": base.to_dict(task), "results": rows})
     else:
-        _echo_disturbed(stats, base.reached(goal_ids), base, perturb, seed)
+        _echo_disturbed(stats, base.reached(goal_ids), base, perturb, request.seed)
     return EXIT_OK if stats["successes"] == len(results) else EXIT_FAILED
 
 
-def _run_replanning(
-    read: TreeInput,
-    tree_file: str,
-    perturb: float,
-    runs: int,
-    seed: int,
-    max_ticks: int,
-    replan: int,
-    trace_file: str | None,
-    as_json: bool,
-) -> int:
+def _run_replanning(read: TreeInput, tree_file: str, request: RunRequest) -> int:
     """``hbtp run --replan N``: every run re-plans (at most N times) when the tree has no answer."""
+    perturb, runs, seed, max_ticks = request.perturb, request.runs, request.seed, request.max_ticks
+    replan, trace_file, as_json = request.replan, request.trace_file, request.as_json
     if read.goal is None:
         raise InputError("--replan needs a goal to plan for: give -g, or a tree file that records one")
     task, goal = read.scenario.task, read.goal
@@ -224,6 +243,33 @@ def _run_replanning(
         for result in results:
             if result.gave_up is not None:
                 click.echo(f"  gave up: {result.gave_up}")
+    return EXIT_OK if reached else EXIT_FAILED
+
+
+def _run_btcpp(read: TreeInput, tree_file: str, request: RunRequest) -> int:
+    """``hbtp run --engine btcpp``: the same runs, ticked by BehaviorTree.CPP."""
+    perturb, runs, seed, max_ticks = request.perturb, request.runs, request.seed, request.max_ticks
+    task = read.scenario.task
+    goal_ids = read.goal.ids if read.goal is not None else frozenset()
+    engine = BtcppEngine(read.tree, task)
+    base = engine.run(max_ticks=max_ticks)
+    model = event_model(task, read.scenario.mutexes) if perturb > 0 else None
+    results = [
+        engine.run(max_ticks=max_ticks, disturbance=RandomDisturbance(model, perturb, random.Random(run_seed(seed, i))))
+        for i in range(runs)
+    ] if model is not None else [base]  # fmt: skip
+    stats = summarise_runs(base, results, goal_ids)
+    reached = stats["successes"] == len(results)
+    if request.as_json:
+        header = {"tree": tree_file, "scenario": read.scenario.name, "engine": "btcpp", "p": perturb, "seed": seed}
+        rows = [{"reached": r.reached(goal_ids), **r.to_dict(task)} for r in results]
+        echo_json({**header, "reached": reached, **stats, "results": rows})
+    elif model is None:
+        click.echo("BehaviorTree.CPP: " + _describe_run(base, base.reached(goal_ids)))
+        click.echo("executes: " + abbreviate_steps([task.actions[i].name for i in base.executed]))
+    else:
+        click.echo("BehaviorTree.CPP:")
+        _echo_disturbed(stats, base.reached(goal_ids), base, perturb, seed)
     return EXIT_OK if reached else EXIT_FAILED
 
 
