@@ -6,6 +6,7 @@ import importlib
 import json
 import random
 import re
+import socket
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
@@ -14,7 +15,8 @@ import pytest
 
 from hbtp.bt import Action, Condition, Fallback, Node, Sequence, tree_of
 from hbtp.bt.btcpp import BUILTIN_IDS, node_ids, tree_from_btcpp, tree_to_btcpp, used_node_ids
-from hbtp.bt.btcpp_engine import BtcppEngine, btcpp_binding
+from hbtp.bt.btcpp_engine import BtcppEngine, Watch, btcpp_binding
+from hbtp.bt.btlog import read_btlog
 from hbtp.bt.disturb import RandomDisturbance, event_model
 from hbtp.bt.export import export_tree
 from hbtp.bt.simulate import simulate
@@ -317,3 +319,53 @@ def test_the_btcpp_engine_says_how_to_install_the_binding(monkeypatch: pytest.Mo
     monkeypatch.setattr(importlib, "import_module", refuse)
     with pytest.raises(InputError, match=r"pip install 'hbtp\[btcpp\]'"):
         btcpp_binding()
+
+
+def test_the_btcpp_run_writes_a_log_groot2_replays(tmp_path: Path, planned: Any) -> None:
+    pytest.importorskip("behaviortreepy")
+    task, result = planned["robothow-small", CASES_GOAL]
+    log_file = tmp_path / "logs" / "run.btlog"
+    run = BtcppEngine(tree_of(result), task).run(max_ticks=100, watch=Watch(btlog=log_file))
+    log = read_btlog(log_file)
+    names = {a.name for a in task.actions}
+    assert [n for n in log.started() if n in names] == [task.actions[i].name for i in run.executed]
+    assert 'BehaviorTree ID="MainTree"' in log.xml
+    root = [t.status for t in log.transitions if t.uid == 1]  # the root: running, then success at the goal
+    assert root[0] == "running"
+    assert "success" in root
+    data = log_file.read_bytes()
+    (tmp_path / "short.btlog").write_bytes(data[:-4])
+    with pytest.raises(InputError, match="ends inside a transition record"):
+        read_btlog(tmp_path / "short.btlog")
+    with pytest.raises(InputError, match=r"not a BehaviorTree\.CPP FileLogger2 log"):
+        read_btlog(_written(tmp_path / "x.btlog", b"hello"))
+
+
+def _written(path: Path, data: bytes) -> Path:
+    path.write_bytes(data)
+    return path
+
+
+def test_hbtp_run_publishes_to_groot2_and_refuses_a_taken_port(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bt = pytest.importorskip("behaviortreepy")
+    tree = tmp_path / "tree.json"
+    assert main(["plan", "-s", "robothow-small", "-g", CASES_GOAL, "-o", str(tree)]) == 0
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    log_file = tmp_path / "run.btlog"
+    assert main(["run", str(tree), "--engine", "btcpp", "--groot", str(port), "--btlog", str(log_file)]) == 0
+    assert read_btlog(log_file).transitions
+    factory = bt.BehaviorTreeFactory()
+    factory.register_simple_condition("C", lambda node: bt.NodeStatus.SUCCESS)
+    holder = factory.create_tree_from_text(
+        '<root BTCPP_format="4"><BehaviorTree ID="M"><C name="c"/></BehaviorTree></root>'
+    )
+    publisher = bt.Groot2Publisher(holder, port)
+    capsys.readouterr()
+    assert main(["run", str(tree), "--engine", "btcpp", "--groot", str(port)]) == 2
+    assert f"cannot publish to Groot2 on port {port}" in capsys.readouterr().err
+    del publisher
+    assert main(["run", str(tree), "--groot", str(port)]) == 2  # hbtp's own engine has no Groot2 view

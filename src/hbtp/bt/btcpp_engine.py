@@ -17,7 +17,11 @@ the reactive parents re-check the goal and the conditions at the next tick, as h
 
 from __future__ import annotations
 
+import contextlib
 import importlib
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from hbtp.bt.btcpp import tree_to_btcpp, used_node_ids
@@ -26,7 +30,7 @@ from hbtp.errors import HbtpError, InputError
 from hbtp.logic.execution import Disturbance, NodeStatus, Run
 from hbtp.logic.task import GroundTask, State
 
-__all__ = ["BtcppEngine", "btcpp_binding"]
+__all__ = ["BtcppEngine", "Watch", "btcpp_binding"]
 
 
 def btcpp_binding() -> Any:
@@ -74,13 +78,25 @@ class BtcppEngine:
         self.executed.append(grounded.index)
         return self.bt.NodeStatus.RUNNING
 
-    def run(self, state: State | None = None, *, max_ticks: int, disturbance: Disturbance | None = None) -> Run:
-        """Tick from ``state`` (default s0) until the root is not RUNNING or ``max_ticks`` ticks."""
+    def run(
+        self,
+        state: State | None = None,
+        *,
+        max_ticks: int,
+        disturbance: Disturbance | None = None,
+        watch: Watch | None = None,
+    ) -> Run:
+        """Tick from ``state`` (default s0) until the root is not RUNNING or ``max_ticks`` ticks;
+        ``watch`` publishes the run to Groot2 and/or writes BT.CPP's log of it."""
         if max_ticks < 1:
             raise InputError(f"max_ticks must be at least 1, not {max_ticks}")
         self.state = self.task.initial_state if state is None else frozenset(state)
         self.executed, self.errors = [], []
         tree = self.factory.create_tree_from_text(self.xml)
+        with (watch or Watch()).attached(self.bt, tree):
+            return self._tick(tree, max_ticks, disturbance)
+
+    def _tick(self, tree: Any, max_ticks: int, disturbance: Disturbance | None) -> Run:
         running = self.bt.NodeStatus.RUNNING
         status, events, ticks = running, 0, 0
         last: int | None = None
@@ -101,6 +117,33 @@ class BtcppEngine:
             raise HbtpError(f"BehaviorTree.CPP callbacks failed: {'; '.join(self.errors[:3])}")
         cost = sum(self.task.actions[i].cost for i in self.executed)
         return Run(_status(self.bt, status), tuple(self.executed), cost, ticks, self.state, events)
+
+
+@dataclass(frozen=True)
+class Watch:
+    """Who watches a BT.CPP run: Groot2 live on ``groot_port``, a FileLogger2 log at ``btlog``."""
+
+    groot_port: int | None = None
+    btlog: Path | None = None
+
+    @contextlib.contextmanager
+    def attached(self, bt: Any, tree: Any) -> Iterator[None]:
+        """The publisher and the logger attached to ``tree`` while the run lasts (the log flushed)."""
+        publisher = logger = None
+        if self.groot_port is not None:
+            try:
+                publisher = bt.Groot2Publisher(tree, self.groot_port)
+            except RuntimeError as error:  # the port is taken (by Groot2Publisher or another program)
+                raise InputError(f"cannot publish to Groot2 on port {self.groot_port}: {error}") from None
+        if self.btlog is not None:
+            self.btlog.parent.mkdir(parents=True, exist_ok=True)
+            logger = bt.FileLogger(tree, str(self.btlog))
+        try:
+            yield
+        finally:
+            if logger is not None:
+                logger.flush()
+            del logger, publisher
 
 
 def _status(bt: Any, status: Any) -> NodeStatus:

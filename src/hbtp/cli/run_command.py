@@ -21,7 +21,7 @@ from typing import Any, TypeVar
 
 import click
 
-from hbtp.bt.btcpp_engine import BtcppEngine
+from hbtp.bt.btcpp_engine import BtcppEngine, Watch
 from hbtp.bt.disturb import RandomDisturbance, check_probability, disturbed_runs, event_model, run_seed, summarise_runs
 from hbtp.bt.jsonio import goal_text
 from hbtp.bt.simulate import DEFAULT_MAX_TICKS, Run, simulate, trace_to_jsonl
@@ -114,6 +114,8 @@ class RunRequest:
     max_ticks: int
     replan: int
     engine: str
+    groot: int | None
+    btlog: str | None
     trace_file: str | None
     as_json: bool
 
@@ -145,6 +147,16 @@ run_options = option_group(
         help="Who ticks the tree: hbtp's executor, or BehaviorTree.CPP itself (behaviortreepy; the tree as "
         "exported with --format btcpp-named), with the same symbolic world and disturbances.",
     ),
+    click.option(
+        "--groot",
+        type=click.IntRange(1, 65535),
+        help="With --engine btcpp: publish the running tree to Groot2 on this port (Groot2's default: 1667).",
+    ),
+    click.option(
+        "--btlog",
+        type=click.Path(dir_okay=False),
+        help="With --engine btcpp (one run): write BehaviorTree.CPP's FileLogger2 log, which Groot2 replays.",
+    ),
     click.option("--trace", "trace_file", type=click.Path(dir_okay=False), help="Write a tick-by-tick JSONL trace."),
     click.option("--json", "as_json", is_flag=True, help="Print the result as JSON."),
 )
@@ -167,7 +179,11 @@ def run_command(tree_file: str, source: ScenarioSource, goal_option: str | None,
     if request.engine == "btcpp":
         if request.replan or request.trace_file:
             raise InputError("--engine btcpp does not go with --replan or --trace (hbtp's executor does both)")
+        if request.btlog and request.perturb > 0 and request.runs > 1:
+            raise InputError("--btlog logs one run: give --runs 1")
         return _run_btcpp(read, tree_file, request)
+    if request.groot is not None or request.btlog:
+        raise InputError("--groot and --btlog watch BehaviorTree.CPP: give --engine btcpp")
     if request.replan:
         return _run_replanning(read, tree_file, request)
     return _run_hbtp(read, tree_file, request)
@@ -252,10 +268,15 @@ def _run_btcpp(read: TreeInput, tree_file: str, request: RunRequest) -> int:
     task = read.scenario.task
     goal_ids = read.goal.ids if read.goal is not None else frozenset()
     engine = BtcppEngine(read.tree, task)
-    base = engine.run(max_ticks=max_ticks)
+    watch = Watch(request.groot, Path(request.btlog) if request.btlog else None)
+    base = engine.run(max_ticks=max_ticks, watch=watch if perturb == 0 else Watch(request.groot))
     model = event_model(task, read.scenario.mutexes) if perturb > 0 else None
     results = [
-        engine.run(max_ticks=max_ticks, disturbance=RandomDisturbance(model, perturb, random.Random(run_seed(seed, i))))
+        engine.run(
+            max_ticks=max_ticks,
+            disturbance=RandomDisturbance(model, perturb, random.Random(run_seed(seed, i))),
+            watch=watch,
+        )
         for i in range(runs)
     ] if model is not None else [base]  # fmt: skip
     stats = summarise_runs(base, results, goal_ids)
