@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import random
 import statistics
 import threading
 import time
@@ -37,7 +36,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from hbtp.bt.build import tree_of
-from hbtp.bt.disturb import RandomDisturbance, check_probability, event_model, run_seed, summarise_runs
+from hbtp.bt.disturb import seeded_disturbances, summarise_runs
 from hbtp.bt.nodes import Fallback, Node
 from hbtp.bt.simulate import DEFAULT_MAX_TICKS, compile_tree, simulate
 from hbtp.domains.scenarios import Scenario
@@ -126,6 +125,8 @@ class Replanner:
         self.excluded: set[int] = set()
         #: Why the policy stopped re-planning (``None`` while it may still re-plan).
         self.gave_up: str | None = None
+        #: Whether it stopped because a re-plan proved the goal unreachable from the state.
+        self.unsolvable = False
 
     def __call__(self, state: State) -> tuple[NodeStatus, int | None]:
         self.ticks += 1
@@ -155,6 +156,7 @@ class Replanner:
         )
         log.info("tick %d: re-planned (%s) in %.1f ms: %s", self.ticks, reason, seconds * 1000, result.status.value)
         if result.status is Status.UNSOLVABLE:
+            self.unsolvable = True
             return self._give_up(f"{UNSOLVABLE_FROM_STATE}: {result.message}")
         if not result.solved:
             return self._give_up(f"re-planning found no tree ({result.status.value}: {result.message})")
@@ -185,6 +187,8 @@ class ReplanningRun:
     run: Run
     replans: tuple[Replan, ...]
     gave_up: str | None = None
+    #: The goal became unreachable from the run's state (proved by the last re-plan).
+    unsolvable: bool = False
 
     @property
     def replanning_s(self) -> float:
@@ -218,7 +222,7 @@ def run_replanning(
     )
     if tracer is not None:
         run = dataclasses.replace(run, trace=tuple(tracer.steps))
-    return ReplanningRun(run, tuple(policy.replans), policy.gave_up)
+    return ReplanningRun(run, tuple(policy.replans), policy.gave_up, policy.unsolvable)
 
 
 # ============================================================ on a robot
@@ -446,25 +450,18 @@ def replanning_runs(
 ) -> list[ReplanningRun]:
     """``runs`` runs with re-planning under the seeded disturbances of
     :func:`hbtp.bt.disturb.disturbed_runs` (run ``i`` meets the same random numbers as there)."""
-    check_probability(p)
-    model = event_model(scenario.task, scenario.mutexes)
-    results: list[ReplanningRun] = []
-    for index in range(runs):
-        disturbance = RandomDisturbance(model, p, random.Random(run_seed(seed, index)))
-        results.append(
-            run_replanning(
-                scenario, goal, tree, max_ticks=max_ticks, disturbance=disturbance, options=options, trace=trace
-            )
-        )
-    return results
+    return [
+        run_replanning(scenario, goal, tree, max_ticks=max_ticks, disturbance=disturbance, options=options, trace=trace)
+        for disturbance in seeded_disturbances(scenario.task, scenario.mutexes, p, runs, seed)
+    ]
 
 
 def replanning_summary(base: Run, results: Sequence[ReplanningRun], goal: Goal) -> dict[str, Any]:
     """:func:`hbtp.bt.disturb.summarise_runs` of the runs, plus the re-plans per run, their times,
     and the runs that ended because the goal could no longer be reached (``unsolvable_runs``)."""
     stats = summarise_runs(base, [r.run for r in results], goal.ids)
-    unsolvable = [r for r in results if r.gave_up is not None and r.gave_up.startswith(UNSOLVABLE_FROM_STATE)]
-    reachable = [r for r in results if r not in unsolvable]
+    unsolvable = [r for r in results if r.unsolvable]
+    reachable = [r for r in results if not r.unsolvable]
     times = [replan.seconds for r in results for replan in r.replans]
     stats.update(
         replans=sum(len(r.replans) for r in results),

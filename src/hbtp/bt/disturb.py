@@ -215,6 +215,18 @@ def run_seed(seed: int, index: int) -> str:
     return f"hbtp-disturb/{seed}/{index}"
 
 
+def seeded_disturbances(
+    task: GroundTask, mutexes: Mutexes, p: float, runs: int, seed: int = 0, kinds: Sequence[str] = KINDS
+) -> list[RandomDisturbance]:
+    """The disturbances of ``runs`` runs: run ``i`` draws from ``random.Random(run_seed(seed, i))``,
+    so every engine and configuration run with the same seed meets the same random numbers."""
+    check_probability(p)
+    if runs < 0:
+        raise InputError(f"the number of runs must not be negative, not {runs}")
+    model = event_model(task, mutexes)
+    return [RandomDisturbance(model, p, random.Random(run_seed(seed, i)), kinds=kinds) for i in range(runs)]
+
+
 def disturbed_runs(
     tree: Node,
     task: GroundTask,
@@ -234,18 +246,11 @@ def disturbed_runs(
     the same seed meet the same random numbers (not necessarily the same events: the events
     depend on the state).
     """
-    check_probability(p)
-    if runs < 0:
-        raise InputError(f"the number of runs must not be negative, not {runs}")
-    model = event_model(task, mutexes)
     policy = compile_tree(tree, task)
-    results = []
-    for index in range(runs):
-        disturbance = RandomDisturbance(model, p, random.Random(run_seed(seed, index)), kinds=kinds)
-        results.append(
-            simulate(tree, task, state, max_ticks=max_ticks, disturbance=disturbance, trace=trace, policy=policy)
-        )
-    return results
+    return [
+        simulate(tree, task, state, max_ticks=max_ticks, disturbance=disturbance, trace=trace, policy=policy)
+        for disturbance in seeded_disturbances(task, mutexes, p, runs, seed, kinds)
+    ]
 
 
 def _mean(values: Sequence[float]) -> float | None:
@@ -306,5 +311,6 @@ __all__ = [
     "exactly_one_groups",
     "perturbation_stats",
     "run_seed",
+    "seeded_disturbances",
     "summarise_runs",
 ]

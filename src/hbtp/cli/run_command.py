@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import functools
 import logging
-import random
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,7 +21,7 @@ from typing import Any, TypeVar
 import click
 
 from hbtp.bt.btcpp_engine import BtcppEngine, Watch
-from hbtp.bt.disturb import RandomDisturbance, check_probability, disturbed_runs, event_model, run_seed, summarise_runs
+from hbtp.bt.disturb import check_probability, disturbed_runs, seeded_disturbances, summarise_runs
 from hbtp.bt.jsonio import goal_text
 from hbtp.bt.simulate import DEFAULT_MAX_TICKS, Run, simulate, trace_to_jsonl
 from hbtp.bt.verify import verify
@@ -270,22 +269,15 @@ def _run_btcpp(read: TreeInput, tree_file: str, request: RunRequest) -> int:
     engine = BtcppEngine(read.tree, task)
     watch = Watch(request.groot, Path(request.btlog) if request.btlog else None)
     base = engine.run(max_ticks=max_ticks, watch=watch if perturb == 0 else Watch(request.groot))
-    model = event_model(task, read.scenario.mutexes) if perturb > 0 else None
-    results = [
-        engine.run(
-            max_ticks=max_ticks,
-            disturbance=RandomDisturbance(model, perturb, random.Random(run_seed(seed, i))),
-            watch=watch,
-        )
-        for i in range(runs)
-    ] if model is not None else [base]  # fmt: skip
+    disturbances = seeded_disturbances(task, read.scenario.mutexes, perturb, runs, seed) if perturb > 0 else []
+    results = [engine.run(max_ticks=max_ticks, disturbance=d, watch=watch) for d in disturbances] or [base]
     stats = summarise_runs(base, results, goal_ids)
     reached = stats["successes"] == len(results)
     if request.as_json:
         header = {"tree": tree_file, "scenario": read.scenario.name, "engine": "btcpp", "p": perturb, "seed": seed}
         rows = [{"reached": r.reached(goal_ids), **r.to_dict(task)} for r in results]
         echo_json({**header, "reached": reached, **stats, "results": rows})
-    elif model is None:
+    elif not disturbances:
         click.echo("BehaviorTree.CPP: " + _describe_run(base, base.reached(goal_ids)))
         click.echo("executes: " + abbreviate_steps([task.actions[i].name for i in base.executed]))
     else:

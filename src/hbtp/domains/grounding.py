@@ -29,7 +29,7 @@ import itertools
 import logging
 import math
 import os
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 from hbtp.deadline import Deadline, TimeLimitReached
@@ -170,13 +170,44 @@ def ground(
     categories = tuple(object_categories)
     if not categories:
         return task
-    unknown = [c for c in categories if c not in task.categories]
+    objects, constants = objects_of_categories(task.objects, task.constants, task.categories, categories)
+    return dataclasses.replace(task, objects=objects, constants=constants)
+
+
+def objects_of_categories(
+    objects: Sequence[str], constants: Sequence[str], members: Mapping[str, Sequence[str]], chosen: Sequence[str]
+) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """O = the members of the ``chosen`` static categories (``members``: category -> objects); every
+    other object or constant becomes a constant. Both sorted."""
+    unknown = [c for c in chosen if c not in members]
     if unknown:
         raise InputError(f"object category {unknown[0]!r} is not a unary static predicate with members")
-    objects = tuple(sorted({o for c in categories for o in task.categories[c]}))
-    everything = dict.fromkeys((*task.constants, *task.objects))
-    constants = tuple(sorted(s for s in everything if s not in set(objects)))
-    return dataclasses.replace(task, objects=objects, constants=constants)
+    kept = tuple(sorted({o for c in chosen for o in members[c]}))
+    everything = dict.fromkeys((*constants, *objects))
+    return kept, tuple(sorted(s for s in everything if s not in set(kept)))
+
+
+def fluent_predicates(domain: Domain, keep_fluent: frozenset[str]) -> set[str]:
+    """The predicates some action changes, with ``keep_fluent`` (checked to be predicates of ``domain``)."""
+    unknown = sorted(keep_fluent - set(domain.predicates))
+    if unknown:
+        raise InputError(f"keep_fluent names unknown predicate(s): {', '.join(unknown)}")
+    return _effect_predicates(domain.actions) | keep_fluent
+
+
+def objects_by_type(domain: Domain, objects: Iterable[TypedName]) -> dict[str, tuple[str, ...]]:
+    """The names of ``objects`` of each type, subtypes included (every object is an ``object``)."""
+    parents = domain.types
+    table: dict[str, list[str]] = {OBJECT_TYPE: []}
+    for obj in objects:
+        for declared in obj.types:
+            current: str | None = declared
+            seen: set[str] = set()
+            while current is not None and current not in seen:
+                seen.add(current)
+                table.setdefault(current, []).append(obj.name)
+                current = parents.get(current, OBJECT_TYPE if current != OBJECT_TYPE else None)
+    return {t: tuple(dict.fromkeys(names)) for t, names in table.items()}
 
 
 def action_bindings(
@@ -268,12 +299,9 @@ class _Grounder:
         self.kept = 0
         self.kept_limit = 0
         self.uses_costs = domain.uses_action_costs
-        unknown = sorted(keep_fluent - set(domain.predicates))
-        if unknown:
-            raise InputError(f"keep_fluent names unknown predicate(s): {', '.join(unknown)}")
-        self.fluent = _effect_predicates(domain.actions) | keep_fluent
+        self.fluent = fluent_predicates(domain, keep_fluent)
         self.objects: tuple[TypedName, ...] = (*domain.constants, *problem.objects)
-        self.by_type = self._objects_by_type()
+        self.by_type = objects_by_type(domain, self.objects)
         self.static_facts: set[_Key] = set()
         self.static_index: dict[str, list[tuple[str, ...]]] = {}
         self.indexes: dict[tuple[str, tuple[int, ...]], dict[tuple[str, ...], list[tuple[str, ...]]]] = {}
@@ -290,19 +318,6 @@ class _Grounder:
                 self.static_index.setdefault(fact.predicate, []).append(fact.terms)
 
     # ----------------------------------------------------------------- types
-    def _objects_by_type(self) -> dict[str, tuple[str, ...]]:
-        parents = self.domain.types
-        table: dict[str, list[str]] = {OBJECT_TYPE: []}
-        for obj in self.objects:
-            for declared in obj.types:
-                current: str | None = declared
-                seen: set[str] = set()
-                while current is not None and current not in seen:
-                    seen.add(current)
-                    table.setdefault(current, []).append(obj.name)
-                    current = parents.get(current, OBJECT_TYPE if current != OBJECT_TYPE else None)
-        return {t: tuple(dict.fromkeys(names)) for t, names in table.items()}
-
     def domain_of(self, typed: TypedName) -> tuple[str, ...]:
         if len(typed.types) == 1:
             return self.by_type.get(typed.types[0], ())

@@ -26,20 +26,25 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
-from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from hbtp.collector import collector_paused
 from hbtp.deadline import Deadline, check_deadline
-from hbtp.domains.grounding import ActionFilter, Selection, action_bindings
+from hbtp.domains.grounding import (
+    ActionFilter,
+    Selection,
+    action_bindings,
+    fluent_predicates,
+    objects_by_type,
+    objects_of_categories,
+)
 from hbtp.domains.lifted import (
     AddEffect,
     And,
     AndEffect,
     AtomFormula,
     DeleteEffect,
-    Domain,
     Effect,
     ForallEffect,
     Formula,
@@ -51,7 +56,6 @@ from hbtp.domains.lifted import (
     is_variable,
 )
 from hbtp.domains.scenarios import Pddl, Scenario, ScenarioOptions, load_pddl_scenario, read_pddl
-from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
 from hbtp.logic.names import ActionNames, names_of
 
@@ -161,13 +165,15 @@ def lifted_names(pddl: Pddl, options: ScenarioOptions | None = None, deadline: D
         ((Atom(schema, args), cost) for schema, found in bindings.items() for args, cost in found),
         key=lambda item: str(item[0]),
     )
-    fluent = _fluent_predicates(domain, frozenset(options.keep_fluent))
+    fluent = frozenset(p for p in fluent_predicates(domain, frozenset(options.keep_fluent)) if p in domain.predicates)
     static_unary: dict[str, list[str]] = {}
     for fact in problem.init:
         if fact.predicate not in fluent and len(fact.terms) == 1:
             static_unary.setdefault(fact.predicate, []).append(fact.terms[0])
     categories = {p: tuple(sorted(set(m))) for p, m in sorted(static_unary.items())}
-    objects, constants = _objects(pddl, options, categories)
+    objects, constants = tuple(o.name for o in problem.objects), tuple(c.name for c in domain.constants)
+    if options.objects:
+        objects, constants = objects_of_categories(objects, constants, categories, options.objects)
     slots = _condition_slots(pddl, bindings, fluent, categories)
     return ActionNames(
         actions=tuple(atom for atom, _ in named),
@@ -177,45 +183,6 @@ def lifted_names(pddl: Pddl, options: ScenarioOptions | None = None, deadline: D
         condition_slots={p: tuple(frozenset(s) for s in slots.get(p, ())) for p in sorted(fluent)},
         categories=categories,
     )
-
-
-def _fluent_predicates(domain: Domain, keep_fluent: frozenset[str]) -> frozenset[str]:
-    unknown = sorted(keep_fluent - set(domain.predicates))
-    if unknown:
-        raise InputError(f"keep_fluent names unknown predicate(s): {', '.join(unknown)}")
-    found: set[str] = set(keep_fluent)
-    for schema in domain.actions:
-        for effect in _effects(schema.effect):
-            if isinstance(effect, AtomFormula):
-                found.add(effect.predicate)
-    return frozenset(p for p in found if p in domain.predicates)
-
-
-def _objects(
-    pddl: Pddl, options: ScenarioOptions, categories: dict[str, tuple[str, ...]]
-) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """O and the constants, as :func:`hbtp.domains.grounding.ground` makes them."""
-    problem_objects = tuple(o.name for o in pddl.problem.objects)
-    constants = tuple(c.name for c in pddl.domain.constants)
-    if not options.objects:
-        return problem_objects, constants
-    unknown = [c for c in options.objects if c not in categories]
-    if unknown:
-        raise InputError(f"object category {unknown[0]!r} is not a unary static predicate with members")
-    objects = tuple(sorted({o for c in options.objects for o in categories[c]}))
-    everything = dict.fromkeys((*constants, *problem_objects))
-    return objects, tuple(sorted(s for s in everything if s not in set(objects)))
-
-
-def _effects(effect: Effect) -> Iterator[AtomFormula]:
-    """The atoms an effect adds or deletes (under any ``when`` or ``forall``)."""
-    if isinstance(effect, AddEffect | DeleteEffect):
-        yield effect.atom
-    elif isinstance(effect, AndEffect):
-        for part in effect.parts:
-            yield from _effects(part)
-    elif isinstance(effect, ForallEffect | WhenEffect):
-        yield from _effects(effect.body)
 
 
 def _condition_slots(
@@ -229,7 +196,7 @@ def _condition_slots(
     for fact in pddl.problem.init:
         if fact.predicate in fluent:
             _note(slots, fact.predicate, [{t} for t in fact.terms])
-    types = _Types(pddl)
+    types = objects_by_type(pddl.domain, (*pddl.domain.constants, *pddl.problem.objects))
     for schema in pddl.domain.actions:
         found = bindings.get(schema.name, ())
         if not found:
@@ -250,31 +217,12 @@ def _note(slots: Slots, predicate: str, values: list[set[str]]) -> None:
         slot |= new
 
 
-class _Types:
-    """The objects (and constants) of each type, subtypes included."""
-
-    def __init__(self, pddl: Pddl) -> None:
-        parents = pddl.domain.types
-        self.table: dict[str, set[str]] = {}
-        for obj in (*pddl.domain.constants, *pddl.problem.objects):
-            for declared in obj.types:
-                current: str | None = declared
-                seen: set[str] = set()
-                while current is not None and current not in seen:
-                    seen.add(current)
-                    self.table.setdefault(current, set()).add(obj.name)
-                    current = parents.get(current, "object" if current != "object" else None)
-
-    def of(self, typed: TypedName) -> set[str]:
-        return set().union(*(self.table.get(t, set()) for t in typed.types))
-
-
 @dataclass
 class _SlotWalker:
     slots: Slots
     fluent: frozenset[str]
     categories: dict[str, tuple[str, ...]]
-    types: _Types
+    types: dict[str, tuple[str, ...]]
     values: dict[str, set[str]]
 
     def atom(self, atom: AtomFormula) -> None:
@@ -313,7 +261,7 @@ class _SlotWalker:
 
     def _range(self, variable: TypedName, guard: Formula) -> set[str]:
         """The objects of the variable's type, in every category the guard requires of it."""
-        found = self.types.of(variable)
+        found = {o for t in variable.types for o in self.types.get(t, ())}
         parts = guard.parts if isinstance(guard, And) else (guard,)
         for part in parts:
             if isinstance(part, AtomFormula) and part.terms == (variable.name,) and part.predicate in self.categories:
