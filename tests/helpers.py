@@ -12,7 +12,7 @@ import random
 import re
 import threading
 import xml.etree.ElementTree as ET
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
@@ -75,7 +75,9 @@ def random_task(seed: int) -> tuple[GroundTask, Goal]:
     return task, goal
 
 
-def brute_force(task: GroundTask, goal: frozenset[int]) -> tuple[int | None, tuple[int, ...]]:
+def brute_force(
+    task: GroundTask, goal: frozenset[int] | Callable[[frozenset[int]], bool]
+) -> tuple[int | None, tuple[int, ...]]:
     """Forward Dijkstra from s0: the optimal cost and one optimal plan, or (None, ()) when unsolvable."""
     start = task.initial_state
     best: dict[frozenset[int], int] = {start: 0}
@@ -86,7 +88,7 @@ def brute_force(task: GroundTask, goal: frozenset[int]) -> tuple[int | None, tup
         cost, _, state = heapq.heappop(heap)
         if cost > best[state]:
             continue
-        if goal <= state:
+        if goal(state) if callable(goal) else goal <= state:
             plan: list[int] = []
             step = previous[state]
             while step is not None:

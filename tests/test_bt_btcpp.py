@@ -211,7 +211,14 @@ def _document(body: str, head: str = '<root BTCPP_format="4" main_tree_to_execut
         (_document('<Walk arg1="fridge" arg2="apple"/>'), "not a grounded action"),
         (_document('<IsOpen arg1="{target}"/>'), "blackboard"),
         (_document('<IsOpen arg1="fridge" _skipIf="x"/>'), "unsupported attribute '_skipIf'"),
-        (_document('<Inverter><IsOpen arg1="fridge"/></Inverter>'), "no counterpart"),
+        (
+            _document('<Inverter><IsOpen arg1="fridge"/></Inverter>'),
+            "which no goal or precondition of the task negates",
+        ),
+        (
+            _document('<Inverter><ReactiveSequence><IsOpen arg1="fridge"/></ReactiveSequence></Inverter>'),
+            "only over one condition leaf",
+        ),
         (_document('<Parallel><IsOpen arg1="fridge"/></Parallel>'), "not supported"),
         (_document('<SequenceWithMemory><IsOpen arg1="fridge"/></SequenceWithMemory>'), "keeps its position"),
         (_document("<Sequence/>"), "at least one child"),

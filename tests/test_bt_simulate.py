@@ -70,9 +70,7 @@ def test_simulate_agrees_with_the_test_runner_on_the_scenarios(scenario: Scenari
             assert run.cost == expected.cost == result.cost
             assert run.final_state == expected.state
         # the search's own execution check is the same executor on the same branches: the same run
-        assert execute_expansions(scenario.task, result.goal.ids, result.expansions) == simulate(
-            tree_of(result, "full"), scenario.task
-        )
+        assert execute_expansions(scenario.task, result.expansions) == simulate(tree_of(result, "full"), scenario.task)
 
 
 def test_a_failing_tree_fails_at_once(kitchen: GroundTask) -> None:

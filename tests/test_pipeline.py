@@ -105,7 +105,7 @@ def assert_reaches_goal(scenario: Scenario, loop: LoopResult) -> None:
     result = loop.result
     goal = result.goal.ids
     assert result.solved, (loop.outcome, result.status, result.message)
-    run = execute_expansions(task, goal, result.expansions)
+    run = execute_expansions(task, result.expansions)
     assert run.reached(goal)
     assert reaches(task, run.executed, goal)
     assert run.cost == result.cost
@@ -692,5 +692,5 @@ def test_the_fallback_does_not_trust_declared_mutexes(robothow_small: Scenario, 
     loop = run_hbtp(robothow_small, goal, Scripted(EMPTY), small_pool, LoopOptions(feedback_rounds=0))
     assert loop.outcome.label == "fallback"
     assert loop.solved
-    run = execute_expansions(robothow_small.task, loop.result.goal.ids, loop.result.expansions)
+    run = execute_expansions(robothow_small.task, loop.result.expansions)
     assert run.reached(loop.result.goal.ids)

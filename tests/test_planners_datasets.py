@@ -73,7 +73,7 @@ def check_sound(scenario: Scenario, record: Record, result: PlanResult, where: s
     """The tree of a solved result, executed from s0, reaches the goal running ``result.executed``."""
     task = scenario.task
     goal = task.resolve_goal(record.goal).ids
-    run = execute_expansions(task, goal, result.expansions)
+    run = execute_expansions(task, result.expansions)
     assert run.reached(goal), where
     assert run.executed == result.executed, where
     assert run.cost == result.cost, where

@@ -43,7 +43,7 @@ from hbtp.domains.scenarios import Scenario
 from hbtp.errors import HbtpError, InputError
 from hbtp.logic.atoms import parse_atom
 from hbtp.logic.execution import Disturbance, NodeStatus, Policy, Run, Trace, TraceStep, execute
-from hbtp.logic.task import Goal, GroundAction, GroundTask, State
+from hbtp.logic.task import Goal, GoalIds, GroundAction, GroundTask, State
 from hbtp.planning.heuristics import HeuristicName
 from hbtp.planning.limits import Limits
 from hbtp.planning.planners import confirmed_search, planner_config
@@ -166,7 +166,7 @@ class Replanner:
 
     def _plan(self, state: State, seconds: float) -> PlanResult:
         world = self.task.from_state(state)
-        goal = world.resolve_goal(self.goal.atoms)
+        goal = world.resolve_goal(self.goal)
         actions: Sequence[GroundAction] = world.actions
         if self.excluded:
             actions = [a for a in world.actions if a.index not in self.excluded]
@@ -194,8 +194,8 @@ class ReplanningRun:
     def replanning_s(self) -> float:
         return sum(r.seconds for r in self.replans)
 
-    def reached(self, goal_ids: frozenset[int]) -> bool:
-        return self.run.reached(goal_ids)
+    def reached(self, goal: GoalIds) -> bool:
+        return self.run.reached(goal)
 
 
 def run_replanning(
@@ -282,9 +282,9 @@ class Runtime:
         max_failures: int = 3,
         tick_timeout_s: float = 10.0,
     ) -> None:
+        scenario, self.goal = scenario.resolve_goal(goal)
         task = scenario.task
         self.task = task
-        self.goal = task.resolve_goal(goal) if isinstance(goal, str) else goal
         self.callbacks = _callbacks(task, actions)
         self.observe = observe
         self.max_failures = max_failures
@@ -346,7 +346,7 @@ class Runtime:
             raise RuntimeFailure(
                 f"the state observer returned literal(s) the domain does not have: {', '.join(unknown[:5])}"
             )
-        return frozenset(ids)
+        return self.task.complete(ids)
 
     def _call(self, action: int) -> NodeStatus:
         """Call the action's implementation within ``tick_timeout_s``; anything but success or
@@ -459,7 +459,7 @@ def replanning_runs(
 def replanning_summary(base: Run, results: Sequence[ReplanningRun], goal: Goal) -> dict[str, Any]:
     """:func:`hbtp.bt.disturb.summarise_runs` of the runs, plus the re-plans per run, their times,
     and the runs that ended because the goal could no longer be reached (``unsolvable_runs``)."""
-    stats = summarise_runs(base, [r.run for r in results], goal.ids)
+    stats = summarise_runs(base, [r.run for r in results], goal)
     unsolvable = [r for r in results if r.unsolvable]
     reachable = [r for r in results if not r.unsolvable]
     times = [replan.seconds for r in results for replan in r.replans]
@@ -470,7 +470,7 @@ def replanning_summary(base: Run, results: Sequence[ReplanningRun], goal: Goal) 
         max_replan_ms=round(1000 * max(times), 3) if times else None,
         unsolvable_runs=len(unsolvable),
         success_rate_reachable=(
-            round(sum(r.reached(goal.ids) for r in reachable) / len(reachable), 6) if reachable else None
+            round(sum(r.reached(goal) for r in reachable) / len(reachable), 6) if reachable else None
         ),
     )
     return stats

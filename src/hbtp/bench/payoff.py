@@ -190,8 +190,8 @@ def verified_tree(result: PlanResult, task: GroundTask, goal: Goal) -> bool:
     if not result.solved:
         return False
     tree = tree_of(result)
-    check = verify(tree, task, goal.ids, from_initial_state=True)
-    return check.ok and simulate(tree, task).reached(goal.ids)
+    check = verify(tree, task, goal, from_initial_state=True)
+    return check.ok and simulate(tree, task).reached(goal)
 
 
 def _plan(run: PayoffRun, scenario: Scenario, goal: Goal) -> tuple[PlanResult, dict[str, Any]]:

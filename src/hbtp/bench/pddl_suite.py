@@ -129,8 +129,8 @@ def verified_tree(result: PlanResult, scenario: Any, goal: Any) -> bool:
     if not result.solved:
         return False
     tree = tree_of(result)
-    check = verify(tree, scenario.task, goal.ids, from_initial_state=True)
-    return check.ok and simulate(tree, scenario.task).reached(goal.ids)
+    check = verify(tree, scenario.task, goal, from_initial_state=True)
+    return check.ok and simulate(tree, scenario.task).reached(goal)
 
 
 def _fast_downward(run: PddlRun, scenario: Any, goal: Any) -> dict[str, Any]:

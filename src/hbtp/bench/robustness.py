@@ -286,7 +286,7 @@ def _stats(
 ) -> dict[str, Any]:
     if kind in REPLANNED:
         return replanning_stats(scenario, goal, tree, p, config.runs, seed, config.max_ticks)
-    return perturbation_stats(tree, scenario.task, goal.ids, scenario.mutexes, p, config.runs, seed, config.max_ticks)
+    return perturbation_stats(tree, scenario.task, goal, scenario.mutexes, p, config.runs, seed, config.max_ticks)
 
 
 def summarise(

@@ -26,6 +26,8 @@ Mapping (one node ID per predicate, grounded arguments as input ports)::
   (about twenty for RobotHow) instead of one per grounded literal (thousands), and Groot2 shows the
   arguments as editable ports. The instance ``name`` repeats the grounded literal (``IsIn(apple,
   fridge)``) so that Groot2's boxes and BT.CPP's loggers read like the planner's output.
+* **A negated literal ``~P(a)`` is an ``Inverter`` over the condition leaf of ``P(a)``**, named
+  ``~P(a)`` (see :mod:`hbtp.logic.negation`); the reader takes such an Inverter back as the literal.
 * **A Condition of several literals is a ``Sequence`` of single-literal conditions** named
   ``Condition``: each literal stays a reusable predicate check, and Groot2's live monitor shows
   *which* literal failed, which a single node with a list-valued port would hide. The reader folds
@@ -195,7 +197,7 @@ class _Writer:
             atoms = sorted(task.atoms[i] for i in node.literals)
             if not atoms:
                 return ET.Element("AlwaysSuccess", {"name": CONDITION_GROUP})
-            leaves = [self.leaf("Condition", self.ids.conditions[a.predicate], a) for a in atoms]
+            leaves = [self.literal(a) for a in atoms]
             if len(leaves) == 1:
                 return leaves[0]
             group = ET.Element("Sequence", {"name": CONDITION_GROUP})
@@ -210,6 +212,15 @@ class _Writer:
             element = ET.Element("ReactiveFallback" if self.reactive else "Fallback")
         element.extend(self.node(child) for child in node.children)
         return element
+
+    def literal(self, atom: Atom) -> ET.Element:
+        """The check of one literal: its condition leaf, under an ``Inverter`` when negated."""
+        leaf = self.leaf("Condition", self.ids.conditions[atom.predicate], atom.positive)
+        if not atom.negated:
+            return leaf
+        inverter = ET.Element("Inverter", {"name": str(atom)})
+        inverter.append(leaf)
+        return inverter
 
     def leaf(self, kind: str, node_id: str, atom: Atom) -> ET.Element:
         if self.explicit_leaves or not _XML_NAME.fullmatch(node_id):
@@ -389,6 +400,8 @@ class _Reader:
             if depth - 1 + height > MAX_TREE_DEPTH:
                 raise InputError(_too_deep())
             return _Read(Fallback(nodes) if tag in _FALLBACKS else Sequence(nodes), total, height)
+        if tag == "Inverter":
+            return _Read(self.inverted(element, where, depth), 2, 2)
         if tag == "AlwaysSuccess":
             self.check_attributes(element, where, ())
             if len(element):
@@ -403,6 +416,25 @@ class _Reader:
         if tag in BUILTIN_IDS:
             raise InputError(f"{where}: the BT.CPP node {tag} has no counterpart in hbtp's trees")
         raise InputError(f"{where}: unknown node ID {tag!r} (not a predicate or action of task {self.task.name!r})")
+
+    def inverted(self, element: ET.Element, where: str, depth: int) -> Condition:
+        """An ``Inverter`` over one condition leaf: the negated literal ``~P(a)`` (see
+        :mod:`hbtp.logic.negation`); the task must have its twin (a goal or precondition negates it)."""
+        self.check_attributes(element, where, ())
+        children = list(element)
+        inner = (
+            self.node(children[0], f"{where}/{_tag(children[0])}[0]", depth + 1).node if len(children) == 1 else None
+        )
+        if not isinstance(inner, Condition) or len(inner.literals) != 1:
+            raise InputError(f"{where}: hbtp reads an Inverter only over one condition leaf (a negated literal)")
+        (atom_id,) = inner.literals
+        twin = self.task.negation_ids.get(atom_id)
+        if twin is None:
+            raise InputError(
+                f"{where}: the tree negates {self.task.atoms[atom_id]}, which no goal or precondition of the task "
+                "negates (give the goal that does)"
+            )
+        return Condition(frozenset({twin}))
 
     def subtree(self, element: ET.Element, tree_id: str, where: str, depth: int) -> _Read:
         if tree_id not in self.trees:

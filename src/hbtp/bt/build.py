@@ -13,16 +13,14 @@ from __future__ import annotations
 from collections.abc import Sequence as Seq
 
 from hbtp.bt.nodes import Action, Condition, Fallback, Node, Sequence
-from hbtp.planning.execution import branch_order
+from hbtp.planning.execution import branch_order, goal_roots
 from hbtp.planning.result import Expansion, PlanResult
 
 
 def full_tree(expansions: Seq[Expansion]) -> Node:
-    """Every expanded condition as ``Sequence(c, a)`` under the goal's fallback."""
-    if not expansions:
-        raise ValueError("a tree needs at least the goal expansion")
-    goal = Condition(expansions[0].condition)
-    branches: list[Node] = [goal]
+    """Every expanded condition as ``Sequence(c, a)`` under the goal's fallback (whose first
+    children check the goal, one Condition per disjunct)."""
+    branches = _goal_checks(expansions)
     for index in branch_order(expansions):
         expansion = expansions[index]
         assert expansion.action is not None
@@ -32,20 +30,25 @@ def full_tree(expansions: Seq[Expansion]) -> Node:
 
 def path_tree(expansions: Seq[Expansion], final: int | None = None) -> Node:
     """Only the solution path: the last expansion (or ``final``) and its ancestors."""
-    if not expansions:
-        raise ValueError("a tree needs at least the goal expansion")
+    branches = _goal_checks(expansions)
     index = len(expansions) - 1 if final is None else final
     chain: list[Expansion] = []
-    while index > 0:
+    while expansions[index].action is not None:
         chain.append(expansions[index])
         index = expansions[index].parent
     chain.reverse()
-    goal = Condition(expansions[0].condition)
-    branches: list[Node] = [goal]
     for expansion in chain:
         assert expansion.action is not None
         branches.append(Sequence((Condition(expansion.condition), Action(expansion.action))))
     return Fallback(tuple(branches))
+
+
+def _goal_checks(expansions: Seq[Expansion]) -> list[Node]:
+    """The Conditions of the goal's disjuncts, the first children of the root."""
+    roots = goal_roots(expansions)
+    if not roots:
+        raise ValueError("a tree needs at least the goal expansion")
+    return [Condition(expansions[index].condition) for index in roots]
 
 
 def tree_of(result: PlanResult, kind: str = "full") -> Node:

@@ -29,7 +29,7 @@ from __future__ import annotations
 import logging
 import random
 import statistics
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -38,7 +38,7 @@ from hbtp.bt.simulate import DEFAULT_MAX_TICKS, compile_tree, simulate
 from hbtp.domains.mutex import Mutexes
 from hbtp.errors import InputError
 from hbtp.logic.execution import Event, Run
-from hbtp.logic.task import GroundTask, State
+from hbtp.logic.task import Goal, GoalIds, GroundTask, State
 
 log = logging.getLogger(__name__)
 
@@ -260,7 +260,7 @@ def _mean(values: Sequence[float]) -> float | None:
 def perturbation_stats(
     tree: Node,
     task: GroundTask,
-    goal_ids: Iterable[int],
+    goal: GoalIds,
     mutexes: Mutexes,
     p: float,
     runs: int,
@@ -275,13 +275,13 @@ def perturbation_stats(
     extras also when the undisturbed run fails). ``mean_events`` is the mean number of events per
     run.
     """
-    goal = frozenset(goal_ids)
+    goal = goal if isinstance(goal, Goal) else frozenset(goal)
     base = simulate(tree, task, max_ticks=max_ticks)
     results = disturbed_runs(tree, task, mutexes, p, runs, seed, max_ticks=max_ticks)
     return {"p": p, "seed": seed, **summarise_runs(base, results, goal)}
 
 
-def summarise_runs(base: Run, results: Sequence[Run], goal: frozenset[int]) -> dict[str, Any]:
+def summarise_runs(base: Run, results: Sequence[Run], goal: GoalIds) -> dict[str, Any]:
     """The figures of :func:`perturbation_stats` for an undisturbed run and disturbed runs."""
     base_ok = base.reached(goal)
     good = [run for run in results if run.reached(goal)]

@@ -22,7 +22,8 @@ from typing import Any
 
 from hbtp.bt.nodes import MAX_TREE_DEPTH, Action, Condition, Fallback, Node, Sequence
 from hbtp.errors import InputError
-from hbtp.logic.atoms import Atom, parse_atom, parse_conjunction
+from hbtp.logic.atoms import Atom, parse_atom
+from hbtp.logic.goals import parse_goal
 from hbtp.logic.task import Goal, GroundTask
 
 FORMAT = "hbtp-tree"
@@ -31,21 +32,29 @@ VERSION = 1
 GoalLike = Goal | str | Iterable[Atom | str]
 
 
-def goal_literals(goal: GoalLike) -> list[str]:
-    """The goal as a list of literals in the ``Pred(a,b)`` form (empty for ``""``).
+def goal_terms(goal: GoalLike) -> list[list[str]]:
+    """The goal's disjuncts, each a list of literals in the ``Pred(a,b)`` form (none for ``""``).
 
-    A string is read as a conjunction (``A(x) & B(y)``; give the ``Pred(a,b)`` form, the
+    A string is read as a goal text (``A(x) & ~B(y) | C(z)``; give the ``Pred(a,b)`` form, the
     underscored one is ambiguous when names contain ``_``)."""
     if isinstance(goal, Goal):
-        return [str(atom) for atom in goal.atoms]
+        return [[str(atom) for atom in term] for term in goal.terms]
     if isinstance(goal, str):
-        return [str(atom) for atom in parse_conjunction(goal)] if goal.strip() else []
-    return [str(parse_atom(item) if isinstance(item, str) else item) for item in goal]
+        return [[str(atom) for atom in term] for term in parse_goal(goal)] if goal.strip() else []
+    return [[str(parse_atom(item) if isinstance(item, str) else item) for item in goal]]
+
+
+def goal_record(goal: GoalLike) -> list[str] | str:
+    """The goal as a tree file records it: the list of literals of a conjunction, else its text."""
+    terms = goal_terms(goal)
+    if len(terms) <= 1:
+        return terms[0] if terms else []
+    return goal_text(goal)
 
 
 def goal_text(goal: GoalLike) -> str:
-    """The goal as one conjunction in the ``Pred(a,b)`` form: ``IsIn(milk,fridge) & IsClose(fridge)``."""
-    return " & ".join(goal_literals(goal))
+    """The goal as text in the ``Pred(a,b)`` form: ``IsIn(milk,fridge) & ~IsOpen(fridge) | IsOn(milk,table)``."""
+    return " | ".join(" & ".join(term) for term in goal_terms(goal))
 
 
 def node_to_dict(node: Node, task: GroundTask) -> dict[str, Any]:
@@ -71,7 +80,7 @@ def tree_to_json(
         "format": FORMAT,
         "version": VERSION,
         "scenario": scenario or task.name,
-        "goal": goal_literals(goal),
+        "goal": goal_record(goal),
         "complete": complete,
     }
     if pddl:

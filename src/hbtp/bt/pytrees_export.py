@@ -178,6 +178,11 @@ class World:
         self.executed: list[str] = []
 
 
+def holds(literals: frozenset[str], state: frozenset[str]) -> bool:
+    """Whether every literal holds: ``P(a)`` when it is in the state, ``~P(a)`` when ``P(a)`` is not."""
+    return all(lit[1:] not in state if lit.startswith("~") else lit in state for lit in literals)
+
+
 class Check(py_trees.behaviour.Behaviour):
     """SUCCESS iff every literal holds, FAILURE otherwise."""
 
@@ -187,7 +192,7 @@ class Check(py_trees.behaviour.Behaviour):
         self.world = world
 
     def update(self) -> Status:
-        return Status.SUCCESS if self.literals <= self.world.state else Status.FAILURE
+        return Status.SUCCESS if holds(self.literals, self.world.state) else Status.FAILURE
 
 
 class Act(py_trees.behaviour.Behaviour):
@@ -199,7 +204,7 @@ class Act(py_trees.behaviour.Behaviour):
 
     def update(self) -> Status:
         pre, add, delete = ACTIONS[self.name]
-        if not pre <= self.world.state:
+        if not holds(pre, self.world.state):
             return Status.FAILURE
         self.world.state = (self.world.state - delete) | add
         self.world.executed.append(self.name)
@@ -251,6 +256,11 @@ def _frozenset(names: list[str], indent: str) -> str:
     return _collection("frozenset({", [_string(n) for n in names], "})", indent)
 
 
+def _positive(task: GroundTask, ids: frozenset[int]) -> frozenset[int]:
+    """``ids`` without negated twins: the module's state lists what is true (``~P`` holds by absence)."""
+    return frozenset(i for i in ids if not task.atoms[i].negated)
+
+
 def write_pytrees_module(tree: Node, task: GroundTask, *, scenario: str = "", goal: str = "") -> str:
     """A standalone Python module (needs only py_trees) that rebuilds ``tree`` and can tick it.
 
@@ -276,7 +286,8 @@ def write_pytrees_module(tree: Node, task: GroundTask, *, scenario: str = "", go
     action_lines = []
     for index in used:
         action = task.actions[index]
-        parts = [_frozenset(task.names(part), "        ") for part in (action.pre, action.add, action.delete)]
+        pre, add, delete = action.pre, _positive(task, action.add), _positive(task, action.delete)
+        parts = [_frozenset(task.names(part), "        ") for part in (pre, add, delete)]
         key = _string(action.name)
         action_lines.append(f"    {key}: {_collection('(', parts, ')', '    ', len(key) + 3)},\n")
     about = "".join(
@@ -287,7 +298,7 @@ def write_pytrees_module(tree: Node, task: GroundTask, *, scenario: str = "", go
     return _MODULE_HEAD.format(
         about=about,
         filename="tree.py",
-        initial=_frozenset(task.names(task.initial_state), ""),
+        initial=_frozenset(task.names(_positive(task, task.initial_state)), ""),
         actions="".join(action_lines),
         root=expression(tree, "    "),
     )

@@ -22,6 +22,7 @@ from hbtp.bt.jsonio import json_document, root_from_document
 from hbtp.bt.nodes import Node
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom, parse_atom, split_conjunction
+from hbtp.logic.goals import parse_goal
 from hbtp.logic.task import Goal, GroundTask
 
 
@@ -107,11 +108,24 @@ class TreeFile:
 
     def resolve_goal(self, task: GroundTask) -> Goal | None:
         """The recorded goal resolved against ``task``; ``None`` when the file states none."""
+        text = self.goal_text(task)
+        if text is None:
+            return None
+        try:
+            return task.resolve_goal(text)
+        except InputError as error:
+            raise InputError(f"{self.path}: the recorded goal: {error}") from None
+
+    def goal_text(self, task: GroundTask) -> str | None:
+        """The recorded goal as goal text in the ``Pred(a,b)`` form (the datasets' underscored
+        literals matched against ``task``); ``None`` when the file states none."""
         if not self.goal:
             return None
-        texts = split_conjunction(self.goal) if isinstance(self.goal, str) else list(self.goal)
         try:
-            return task.resolve_goal([_literal(task, text) for text in texts])
+            if isinstance(self.goal, str) and ("|" in self.goal or self.goal.lstrip().startswith("(")):
+                return " | ".join(" & ".join(map(str, term)) for term in parse_goal(self.goal))
+            texts = split_conjunction(self.goal) if isinstance(self.goal, str) else list(self.goal)
+            return " & ".join(str(_literal(task, text)) for text in texts)
         except InputError as error:
             raise InputError(f"{self.path}: the recorded goal: {error}") from None
 
@@ -124,11 +138,13 @@ def _literal(task: GroundTask, text: str) -> Atom:
         task.check_literal(atom)
         return atom
     except InputError:
+        stripped = text.strip()
+        negated = stripped.startswith("~")
         underscored = {candidate.underscored: candidate for candidate in task.atoms}
-        found = underscored.get(text.strip())
+        found = underscored.get(stripped.lstrip("~").strip())
         if found is None:
             raise
-        return found
+        return found.negate() if negated else found
 
 
 def read_tree_file(path: str | os.PathLike[str]) -> TreeFile:

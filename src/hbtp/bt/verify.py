@@ -17,8 +17,9 @@ condition ``guard | pre(action)`` holds, or succeeds at the first *success branc
 reached with no action after it), or fails (see :func:`flatten`). For that form the verifier
 proves:
 
-* the root succeeds exactly when the goal holds: the first branch is a success branch whose
-  guard is the goal, and no other success branch can hold without the goal;
+* the root succeeds exactly when the goal holds: the first branches are success branches whose
+  guards are the goal's disjuncts (one for a conjunctive goal; each disjunct holds a guard of them),
+  and no success branch can hold without some disjunct;
 * *progress*: for every action branch ``i`` with condition ``c_i``, the state ``(c_i - del) | add``
   that its action leads to satisfies the condition of some *earlier* branch ``j < i``.
 
@@ -49,11 +50,12 @@ from typing import Any
 from hbtp.bt.nodes import Action, Condition, Fallback, Node, NodeStatus, tick
 from hbtp.bt.nodes import Sequence as SequenceNode
 from hbtp.logic.subsets import SubsetIndex
-from hbtp.logic.task import GroundTask
+from hbtp.logic.task import GoalIds, GroundTask, disjuncts_of
 
 log = logging.getLogger(__name__)
 
 Path = tuple[int, ...]
+Goal = tuple[frozenset[int], ...]  # the goal's disjuncts
 
 
 def path_text(path: Iterable[int]) -> str:
@@ -228,13 +230,14 @@ class _Collector:
         return ", ".join(self.task.names(ids)) or "(nothing)"
 
 
-def verify(tree: Node, task: GroundTask, goal_ids: Iterable[int], *, from_initial_state: bool = False) -> Verification:
-    """Check ``tree`` against ``task`` and the goal (atom ids); see the module docstring.
+def verify(tree: Node, task: GroundTask, goal: GoalIds, *, from_initial_state: bool = False) -> Verification:
+    """Check ``tree`` against ``task`` and the goal (a :class:`Goal`, or the atom ids of a
+    conjunction); see the module docstring.
 
     ``from_initial_state``: also report an ``initial-state`` problem unless the tree reaches the
     goal from s0 (without it, a tree that is correct wherever it acts passes even if s0 is outside
     it, as the truncated trees of a search stopped by a limit are)."""
-    goal = frozenset(goal_ids)
+    disjuncts = disjuncts_of(goal)
     found = _Collector(task)
     if not _check_symbols(tree, task, (), found):
         return _result(found, proved=False, covers=False, branches=None, notes=("unknown ids: nothing else checked",))
@@ -248,9 +251,9 @@ def verify(tree: Node, task: GroundTask, goal_ids: Iterable[int], *, from_initia
             "the tree has no first-match form (a Sequence continues after a node that can succeed in "
             "several ways): goal reaching is not proved"
         )
-        _check_success_implies_goal(tree, goal, found)
+        _check_success_implies_goal(tree, disjuncts, found)
     else:
-        proved = _check_goal_branches(branches, goal, found)
+        proved = _check_goal_branches(branches, disjuncts, found)
         proved = _check_progress(branches, task, found) and proved
         s0 = task.initial_state
         covers = any(branch.condition(task) <= s0 for branch in branches)
@@ -263,7 +266,7 @@ def verify(tree: Node, task: GroundTask, goal_ids: Iterable[int], *, from_initia
                 "(a partial tree, written after an unsolved search?)",
             )
         elif branches is None:
-            outcome = _run_from_initial_state(tree, task, goal)
+            outcome = _run_from_initial_state(tree, task, disjuncts)
             if outcome:
                 found.problem((), "initial-state", outcome)
             else:
@@ -276,7 +279,7 @@ def verify(tree: Node, task: GroundTask, goal_ids: Iterable[int], *, from_initia
 _MAX_RUN = 100_000  # actions of the run from s0 for a tree without first-match form
 
 
-def _run_from_initial_state(tree: Node, task: GroundTask, goal: frozenset[int]) -> str:
+def _run_from_initial_state(tree: Node, task: GroundTask, goal: Goal) -> str:
     """Tick ``tree`` from s0 until it stops or repeats a state: ``""`` when it ends in SUCCESS with
     the goal, else what goes wrong."""
     state = task.initial_state
@@ -285,9 +288,9 @@ def _run_from_initial_state(tree: Node, task: GroundTask, goal: frozenset[int]) 
     while True:
         status, running = tick(tree, state, task)
         if status is NodeStatus.SUCCESS:
-            if goal <= state:
+            if any(d <= state for d in goal):
                 return ""
-            missing = ", ".join(task.names(goal - state))
+            missing = ", ".join(task.names(_closest_missing(state, goal)))
             return (
                 f"from the initial state the tree succeeds after {actions} action(s) without the goal: "
                 f"missing {missing}"
@@ -412,65 +415,72 @@ def _success_post(node: Node, known: frozenset[int]) -> frozenset[int] | None:
     return result
 
 
-def _check_success_implies_goal(tree: Node, goal: frozenset[int], found: _Collector) -> None:
+def _closest_missing(guard: frozenset[int], goal: Goal) -> frozenset[int]:
+    """The literals ``guard`` lacks of the goal's disjunct it is closest to (fewest missing)."""
+    return min((d - guard for d in goal), key=lambda m: (len(m), sorted(m)), default=frozenset())
+
+
+def _check_success_implies_goal(tree: Node, goal: Goal, found: _Collector) -> None:
     post = _success_post(tree, frozenset())
     if post is None:
         found.problem((), "never-succeeds", "the root can never return SUCCESS")
-    elif goal - post:
+    elif not any(d <= post for d in goal):
+        missing = _closest_missing(post, goal)
         found.problem(
             (),
             "success-without-goal",
-            f"the root can return SUCCESS without the goal: missing {found.literals(goal - post)}",
-            goal - post,
+            f"the root can return SUCCESS without the goal: missing {found.literals(missing)}",
+            missing,
         )
 
 
-def _check_goal_branches(branches: Sequence[Branch], goal: frozenset[int], found: _Collector) -> bool:
-    """The root succeeds exactly when the goal holds: the goal is the first branch, and no other
-    success branch holds without it."""
+def _check_goal_branches(branches: Sequence[Branch], goal: Goal, found: _Collector) -> bool:
+    """The root succeeds exactly when the goal holds: the first branches are success branches that
+    check the goal (some check each disjunct, asking for nothing more), and every success branch
+    holds a disjunct."""
     if not branches:
         found.problem((), "never-succeeds", "the tree always fails: it has no branch at all")
         return False
     ok = True
-    first = branches[0]
-    if first.action is not None:
-        ok = False
-        found.problem(
-            first.path,
-            "goal-check",
-            f"the tree does not check the goal first: it can run {found.task.actions[first.action].name} "
-            "while the goal holds",
-        )
-    else:
-        missing = goal - first.guard
-        extra = first.guard - goal
-        if missing:
+    lead: list[Branch] = []
+    for branch in branches:
+        if branch.action is not None:
+            break
+        lead.append(branch)
+    for branch in branches:
+        if branch.action is None and not any(d <= branch.guard for d in goal):
             ok = False
-            found.problem(
-                first.path,
-                "success-without-goal",
-                f"the first branch succeeds without the goal: missing {found.literals(missing)}",
-                missing,
-            )
-        elif extra:
-            ok = False
-            found.problem(
-                first.path,
-                "goal-check",
-                f"the first branch asks for more than the goal, so the tree may act when the goal holds: "
-                f"extra {found.literals(extra)}",
-                extra,
-            )
-    for branch in branches[1:]:
-        if branch.action is None and not goal <= branch.guard:
-            ok = False
-            missing = goal - branch.guard
+            missing = _closest_missing(branch.guard, goal)
+            first = branch is branches[0]
             found.problem(
                 branch.path,
                 "success-without-goal",
-                f"this branch makes the root succeed without the goal: missing {found.literals(missing)}",
+                f"{'the first branch succeeds' if first else 'this branch makes the root succeed'} without the goal: "
+                f"missing {found.literals(missing)}",
                 missing,
             )
+    for disjunct in goal:
+        if any(branch.guard <= disjunct for branch in lead):
+            continue
+        ok = False
+        if not lead:
+            action = branches[0].action
+            assert action is not None
+            found.problem(
+                branches[0].path,
+                "goal-check",
+                f"the tree does not check the goal first: it can run {found.task.actions[action].name} "
+                "while the goal holds",
+            )
+            break
+        extra = min((branch.guard - disjunct for branch in lead), key=lambda e: (len(e), sorted(e)))
+        found.problem(
+            lead[0].path,
+            "goal-check",
+            f"the first branch asks for more than the goal, so the tree may act when the goal holds: "
+            f"extra {found.literals(extra)}",
+            extra,
+        )
     return ok
 
 

@@ -16,7 +16,7 @@ from hbtp.bt.export import FORMATS, export_tree, format_from_extension, write_ex
 from hbtp.bt.jsonio import goal_text, tree_to_json
 from hbtp.bt.treefile import pddl_record, read_tree_file
 from hbtp.cli.options import ScenarioSource, scenario_options
-from hbtp.cli.tree_input import pddl_files, scenario_for
+from hbtp.cli.tree_input import pddl_files, resolve_tree, scenario_for
 from hbtp.errors import InputError
 from hbtp.files import write_atomically
 
@@ -71,9 +71,7 @@ def export_command(
     if out_file is None and FORMATS[chosen].binary:
         raise InputError(f"{chosen} is a binary format: give --out FILE")
     file = read_tree_file(tree_file)
-    loaded = scenario_for(file, source)
-    tree = file.tree(loaded.task)
-    goal = file.resolve_goal(loaded.task)
+    loaded, tree, goal = resolve_tree(file, scenario_for(file, source))
     goal_line = goal_text(goal) if goal is not None else ""
     if chosen == "json":  # keeps what only JSON records: the PDDL files and completeness
         pddl = pddl_files(source) if source.given else file.pddl

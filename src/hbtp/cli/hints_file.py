@@ -57,7 +57,7 @@ def load_hints(source: str, loaded: Scenario, goal: Goal, limits: Limits) -> Hin
     except DatasetError as error:
         records, problem = None, error
     if records:
-        matching = [r for r in records if _goal_ids(loaded, r.goal) == goal.ids]
+        matching = [r for r in records if _goal_key(loaded, r.goal) == frozenset(goal.disjuncts)]
         if not matching:
             raise InputError(f"{source}: {_none_has(len(records), goal)}")
         return hints_from_record(matching[0])
@@ -70,7 +70,7 @@ def load_hints(source: str, loaded: Scenario, goal: Goal, limits: Limits) -> Hin
             raise InputError(f"{source}: {_NO_HINTS}")
         return parsed.hints
     for block, goal_text in goal_blocks:
-        if _goal_ids(loaded, goal_text) == goal.ids:
+        if _goal_key(loaded, goal_text) == frozenset(goal.disjuncts):
             parsed = parse_reply(block)
             if not parsed.found:
                 raise InputError(f"{source}: the record for the goal {goal} has {_NO_HINTS}")
@@ -89,8 +89,9 @@ def _none_has(count: int, goal: Goal) -> str:
     return f"none of its {count} records has the goal {goal}"
 
 
-def _goal_ids(loaded: Scenario, goal: str) -> frozenset[int] | None:
+def _goal_key(loaded: Scenario, goal: str) -> frozenset[frozenset[int]] | None:
+    """The goal's disjuncts as a set (what two spellings of one goal share), ``None`` if unreadable."""
     try:
-        return loaded.task.resolve_goal(goal.strip()).ids
+        return frozenset(loaded.task.resolve_goal(goal.strip()).disjuncts)
     except InputError:
         return None

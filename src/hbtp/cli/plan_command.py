@@ -270,7 +270,7 @@ def run_plan(request: PlanRequest) -> int:
         return _run_pruned(spec, request, limits)
     loaded = request.source.load(deadline=limits.deadline)
     goal_source = read_goal(request.goal) if request.goal is not None else loaded.problem_goal()
-    goal = loaded.task.resolve_goal(goal_source)
+    loaded, goal = loaded.resolve_goal(goal_source)
     check_alpha(search.alpha)
     report = _Report(loaded, goal, request)
     if spec is not None and auto_backend(spec) is not None:
@@ -319,7 +319,7 @@ def _run_pruned(spec: str, request: PlanRequest, limits: Limits) -> int:
     world = request.source.load_pruned(deadline=limits.deadline)
     empty = world.part(frozenset(), frozenset())
     goal_source = read_goal(request.goal) if request.goal is not None else empty.problem_goal()
-    goal = empty.task.resolve_goal(goal_source)
+    goal = empty.resolve_goal(goal_source)[1]
     check_alpha(request.search.alpha)
     options = request.llm
     progress = _progress(request.outputs.as_json)
@@ -343,7 +343,7 @@ def _run_pruned(spec: str, request: PlanRequest, limits: Limits) -> int:
         "grounded_actions": len(loop.scenario.task.actions),
         "whole_grounded": world.grounded,
     }
-    report = _Report(loop.scenario, loop.scenario.task.resolve_goal(goal.atoms), request, grounding)
+    report = _Report(loop.scenario, loop.scenario.resolve_goal(goal)[1], request, grounding)
     return report.finish(loop.result, "llm", loop)
 
 

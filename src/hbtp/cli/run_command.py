@@ -29,7 +29,7 @@ from hbtp.cli.exit_codes import CommandError, ExitCode, command_error
 from hbtp.cli.options import ScenarioSource, echo_json, option_group, scenario_options, write_files_atomically
 from hbtp.cli.tree_input import TreeInput, load_tree_input
 from hbtp.errors import HbtpError, InputError
-from hbtp.logic.task import GroundTask
+from hbtp.logic.task import GoalIds, GroundTask
 from hbtp.runtime import ReplanOptions, replanning_runs, replanning_summary
 
 log = logging.getLogger(__name__)
@@ -191,7 +191,7 @@ def run_command(tree_file: str, source: ScenarioSource, goal_option: str | None,
 def _run_hbtp(read: TreeInput, tree_file: str, request: RunRequest) -> int:
     """The tree ticked by hbtp's executor: once, or ``--runs`` times under ``--perturb``."""
     task, perturb, trace_file = read.scenario.task, request.perturb, request.trace_file
-    goal_ids = read.goal.ids if read.goal is not None else frozenset()
+    goal_ids: GoalIds = read.goal if read.goal is not None else frozenset()
     base = simulate(read.tree, task, max_ticks=request.max_ticks, trace=trace_file is not None and perturb == 0)
     header: dict[str, Any] = {
         "tree": tree_file,
@@ -240,7 +240,7 @@ def _run_replanning(read: TreeInput, tree_file: str, request: RunRequest) -> int
     reached = stats["successes"] == len(results)
     if as_json:
         rows = [
-            {"reached": r.reached(goal.ids), **r.run.to_dict(task), "replans": [x.to_dict() for x in r.replans],
+            {"reached": r.reached(goal), **r.run.to_dict(task), "replans": [x.to_dict() for x in r.replans],
              "gave_up": r.gave_up}
             for r in results
         ]  # fmt: skip
@@ -249,7 +249,7 @@ def _run_replanning(read: TreeInput, tree_file: str, request: RunRequest) -> int
             {**header, "p": perturb, "seed": seed, "replan": replan, "reached": reached, **stats, "results": rows}
         )
     else:
-        _echo_disturbed(stats, base.reached(goal.ids), base, perturb, seed)
+        _echo_disturbed(stats, base.reached(goal), base, perturb, seed)
         median = stats["median_replan_ms"]
         click.echo(
             f"re-plans: {stats['replans']} in all, median {_number(median)} ms; "
@@ -265,7 +265,7 @@ def _run_btcpp(read: TreeInput, tree_file: str, request: RunRequest) -> int:
     """``hbtp run --engine btcpp``: the same runs, ticked by BehaviorTree.CPP."""
     perturb, runs, seed, max_ticks = request.perturb, request.runs, request.seed, request.max_ticks
     task = read.scenario.task
-    goal_ids = read.goal.ids if read.goal is not None else frozenset()
+    goal_ids: GoalIds = read.goal if read.goal is not None else frozenset()
     engine = BtcppEngine(read.tree, task)
     watch = Watch(request.groot, Path(request.btlog) if request.btlog else None)
     base = engine.run(max_ticks=max_ticks, watch=watch if perturb == 0 else Watch(request.groot))
@@ -338,7 +338,7 @@ def verify_command(
     loaded, tree, goal = read.scenario, read.tree, read.goal
     if goal is None:
         raise InputError(f"{tree_file}: the tree file states no goal; give one with --goal")
-    result = verify(tree, loaded.task, goal.ids, from_initial_state=True)
+    result = verify(tree, loaded.task, goal, from_initial_state=True)
     if as_json:
         echo_json({"tree": tree_file, "scenario": loaded.name, "goal": goal_text(goal), **result.to_dict()})
     else:

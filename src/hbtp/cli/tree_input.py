@@ -65,12 +65,26 @@ def scenario_for(file: TreeFile, source: ScenarioSource) -> Scenario:
 def load_tree_input(path: str, source: ScenarioSource, goal_text: str | None = None) -> TreeInput:
     """Read the tree file ``path`` and resolve it and its goal (``goal_text`` overrides the file's)."""
     file = read_tree_file(path)
-    loaded = scenario_for(file, source)
-    tree = file.tree(loaded.task)
-    goal = loaded.task.resolve_goal(goal_text) if goal_text else file.resolve_goal(loaded.task)
+    loaded, tree, goal = resolve_tree(file, scenario_for(file, source), goal_text)
     if not file.complete:
         log.warning("%s holds a partial tree (its search did not reach the initial state)", path)
     return TreeInput(file, loaded, tree, goal)
 
 
-__all__ = ["TreeInput", "load_tree_input", "pddl_files", "scenario_for"]
+def resolve_tree(file: TreeFile, loaded: Scenario, goal_text: str | None = None) -> tuple[Scenario, Node, Goal | None]:
+    """The scenario (with the negated twins the goal needs), the file's tree and its goal
+    (``goal_text``, else the one the file records, else ``None``), resolved in it."""
+    goal = None
+    if goal_text:
+        loaded, goal = loaded.resolve_goal(goal_text)
+    else:
+        text = file.goal_text(loaded.task)
+        if text:  # a negative goal literal needs its twin in the task before the tree is read
+            try:
+                loaded, goal = loaded.resolve_goal(text)
+            except InputError as error:
+                raise InputError(f"{file.path}: the recorded goal: {error}") from None
+    return loaded, file.tree(loaded.task), goal
+
+
+__all__ = ["TreeInput", "load_tree_input", "pddl_files", "resolve_tree", "scenario_for"]

@@ -139,7 +139,25 @@ def infer_mutexes(
     nogoods = tuple(dict.fromkeys(n for spec in declared_nogoods for n in _ground_nogood(spec, task)))
     ordered = tuple(sorted(groups.values(), key=lambda g: (not g.proved, g.pattern, sorted(g.atoms))))
     log.debug("%s: %d mutex groups, %d declared nogoods", task.name, len(ordered), len(nogoods))
-    return Mutexes(ordered, nogoods, len(task.atoms))
+    return with_negation_groups(Mutexes(ordered, nogoods, len(task.atoms)), task)
+
+
+def with_negation_groups(mutexes: Mutexes, task: GroundTask) -> Mutexes:
+    """``mutexes`` for ``task``, which may have more atoms (negated twins appended by
+    :func:`hbtp.logic.negation.with_negations`), with the group ``{p, ~p}`` of every twin.
+
+    The group is proved by the usual induction: s0 holds exactly one of the two, and every action
+    that adds one deletes the other (the compilation makes it so).
+    """
+    known = {group.atoms for group in mutexes.groups}
+    added = tuple(
+        MutexGroup(frozenset((atom, twin)), "negation", True)
+        for atom, twin in sorted(task.negation_ids.items())
+        if frozenset((atom, twin)) not in known
+    )
+    if not added and mutexes.atom_count == len(task.atoms):
+        return mutexes
+    return Mutexes((*mutexes.groups, *added), mutexes.nogoods, len(task.atoms))
 
 
 class _Synthesis:
@@ -147,10 +165,11 @@ class _Synthesis:
         self.task = task
         self.atoms_by_predicate: dict[str, list[int]] = {}
         for atom_id, atom in enumerate(task.atoms):
-            self.atoms_by_predicate.setdefault(atom.predicate, []).append(atom_id)
+            if not atom.negated:  # negated twins get their groups from with_negation_groups
+                self.atoms_by_predicate.setdefault(atom.predicate, []).append(atom_id)
         self.adders_by_predicate: dict[str, list[int]] = {}
         for action in task.actions:
-            for predicate in {task.atoms[a].predicate for a in action.add}:
+            for predicate in {task.atoms[a].predicate for a in action.add if not task.atoms[a].negated}:
                 self.adders_by_predicate.setdefault(predicate, []).append(action.index)
 
     # ------------------------------------------------------------ candidates
@@ -198,7 +217,7 @@ class _Synthesis:
         result: list[Pattern] = []
         for atom_id in sorted(action.pre & action.delete):
             atom = self.task.atoms[atom_id]
-            if atom.predicate in present:
+            if atom.predicate in present or atom.negated:
                 continue
             for slots in _slot_choices(atom.args, key):
                 result.append((*pattern, (atom.predicate, slots)))

@@ -155,9 +155,35 @@ def keyword_safe_predicates(predicates: Iterable[str]) -> dict[str, str]:
     return renamed
 
 
+#: The prefix of the proposition written for a negated twin ``~p`` (see :mod:`hbtp.logic.negation`).
+TWIN_PREFIX = "not-"
+
+
+def _written(atom: Atom) -> Atom:
+    """The proposition written for an atom of a task: a negated twin ``~P(a)`` is ``not-P(a)``."""
+    return Atom(TWIN_PREFIX + atom.predicate, atom.args) if atom.negated else atom
+
+
 def _ground_atom(atom: Atom, rename: dict[str, str] | None = None) -> str:
+    atom = _written(atom)
     predicate = rename.get(atom.predicate, atom.predicate) if rename else atom.predicate
     return f"({' '.join((predicate, *atom.args))})"
+
+
+#: The proposition and the action-name prefix of the compiled disjunctive goal (see :func:`write_grounded`).
+GOAL_REACHED = "hbtp-goal-reached"
+GOAL_ACTION = "hbtp-reach-goal-"
+
+
+def _goal_formula(task: GroundTask, goal: Goal, rename: dict[str, str]) -> list[str]:
+    """Each disjunct of the goal as a conjunction of PDDL atoms, the literals in the order the goal
+    gives them."""
+    written = {atom: position for position, atom in enumerate(goal.atoms)}
+
+    def order(atom_id: int) -> tuple[int, int]:
+        return written.get(task.atoms[atom_id], len(written)), atom_id
+
+    return [" ".join(_ground_atom(task.atoms[i], rename) for i in sorted(d, key=order)) for d in goal.disjuncts]
 
 
 def write_grounded(
@@ -177,26 +203,29 @@ def write_grounded(
     """
     name = domain_name or _pddl_name(task.name)
     used: dict[str, int] = {}  # predicate -> arity
-    for atom in (*task.atoms, *goal.atoms):
-        used.setdefault(atom.predicate, len(atom.args))
+    for atom in task.atoms:
+        used.setdefault(_written(atom).predicate, len(atom.args))
     rename = keyword_safe_predicates(used) if rename_keywords else {}
     init = " ".join(_ground_atom(task.atoms[i], rename) for i in sorted(task.initial_state))
-    goals = " ".join(_ground_atom(a, rename) for a in goal.atoms)
+    terms = _goal_formula(task, goal, rename)
     problem = (
         f"(define (problem {name}-task)\n"
         f"  (:domain {name})\n"
         f"  (:init {init} (= (total-cost) 0))\n"
-        f"  (:goal (and {goals}))\n"
+        f"  (:goal (and {terms[0] if len(terms) == 1 else f'({GOAL_REACHED})'}))\n"
         "  (:metric minimize (total-cost))\n"
         ")\n"
     )
-    return _grounded_domain(task, name, used, rename), problem
+    return _grounded_domain(task, name, used, rename, terms if len(terms) > 1 else []), problem
 
 
-def _grounded_domain(task: GroundTask, name: str, used: dict[str, int], rename: dict[str, str]) -> str:
-    """The domain of :func:`write_grounded`: one parameterless action per ground action."""
+def _grounded_domain(
+    task: GroundTask, name: str, used: dict[str, int], rename: dict[str, str], disjuncts: list[str]
+) -> str:
+    """The domain of :func:`write_grounded`: one parameterless action per ground action, and one
+    free action per disjunct of a disjunctive goal."""
     symbols = [*task.constants, *task.objects]
-    changed = {task.atoms[i].predicate for action in task.actions for i in (*action.add, *action.delete)}
+    changed = {_written(task.atoms[i]).predicate for action in task.actions for i in (*action.add, *action.delete)}
     unchanged = sorted(rename.get(p, p) for p in used if p not in changed and p in task.predicates)
     domain = [
         f"(define (domain {name})\n",
@@ -213,6 +242,7 @@ def _grounded_domain(task: GroundTask, name: str, used: dict[str, int], rename: 
             f"    ({' '.join((rename.get(p, p), *(f'?a{i}' for i in range(arity))))})\n"
             for p, arity in sorted(used.items())
         ),
+        f"    ({GOAL_REACHED})\n" if disjuncts else "",
         "  )\n",
         "  (:functions (total-cost) - number)\n",
     ]
@@ -226,6 +256,13 @@ def _grounded_domain(task: GroundTask, name: str, used: dict[str, int], rename: 
             f"    :parameters ()\n"
             f"    :precondition (and {pre})\n"
             f"    :effect (and {' '.join(eff)}))\n"
+        )
+    for number, disjunct in enumerate(disjuncts):
+        domain.append(
+            f"  (:action {GOAL_ACTION}{number}\n"
+            f"    :parameters ()\n"
+            f"    :precondition (and {disjunct})\n"
+            f"    :effect (and ({GOAL_REACHED}) (increase (total-cost) 0)))\n"
         )
     domain.append(")\n")
     return "".join(domain)

@@ -6,11 +6,12 @@ PDDL files inside the package, described by ``data/scenarios.toml``.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import logging
 import time
 import tomllib
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -21,11 +22,13 @@ from hbtp.deadline import Deadline, check_deadline
 from hbtp.domains import cache
 from hbtp.domains.cache import cache_dir
 from hbtp.domains.grounding import ActionFilter, ground
-from hbtp.domains.lifted import And, AtomFormula, Domain, Formula, Problem
-from hbtp.domains.mutex import Mutexes, infer_mutexes
+from hbtp.domains.lifted import And, AtomFormula, Domain, Formula, Imply, Not, Or, Problem
+from hbtp.domains.mutex import Mutexes, infer_mutexes, with_negation_groups
 from hbtp.domains.pddl_reader import read_domain_file, read_problem_file
 from hbtp.errors import InputError
-from hbtp.logic.task import GroundTask
+from hbtp.logic.atoms import Atom
+from hbtp.logic.negation import with_negations
+from hbtp.logic.task import Goal, GroundTask
 
 log = logging.getLogger(__name__)
 
@@ -38,6 +41,21 @@ class Pddl:
 
     domain: Domain
     problem: Problem
+
+
+def _goal_text(formula: Formula, source: Path) -> str:
+    """A PDDL goal formula as infix goal text (see :mod:`hbtp.logic.goals`)."""
+    if isinstance(formula, AtomFormula):
+        return f"{formula.predicate}({','.join(formula.terms)})"
+    if isinstance(formula, Not):
+        return f"~({_goal_text(formula.operand, source)})"
+    if isinstance(formula, And | Or):
+        joiner = " & " if isinstance(formula, And) else " | "
+        text = joiner.join(_goal_text(part, source) for part in formula.parts)
+        return text if len(formula.parts) == 1 else f"({text})"
+    if isinstance(formula, Imply):
+        return f"(~({_goal_text(formula.antecedent, source)}) | {_goal_text(formula.consequent, source)})"
+    raise InputError(f"{source}:{formula.line or '?'}: the problem's :goal compares objects (=); give the goal with -g")
 
 
 def read_pddl(domain_file: str | Path, problem_file: str | Path, deadline: Deadline | None = None) -> Pddl:
@@ -72,28 +90,33 @@ class Scenario:
         return self.parsed if self.parsed is not None else read_pddl(self.domain_file, self.problem_file)
 
     def problem_goal(self) -> str:
-        """The problem file's ``:goal`` as goal text (``P(a,b) & Q(c)``): the default of ``hbtp plan``.
+        """The problem file's ``:goal`` as goal text (``P(a,b) & ~Q(c) | R(a)``): the default of
+        ``hbtp plan``.
 
         Raises :class:`InputError` when the problem has no goal (the shipped scenarios' problems hold
-        a placeholder) or one that is not a conjunction of atoms.
+        a placeholder) or one with an equality.
         """
-        literals: list[str] = []
-        pending: list[Formula] = [self.pddl.problem.goal]
-        while pending:
-            formula = pending.pop()
-            if isinstance(formula, And):
-                pending.extend(reversed(formula.parts))
-            elif isinstance(formula, AtomFormula):
-                literals.append(f"{formula.predicate}({','.join(formula.terms)})")
-            else:
-                where = f"{self.problem_file}:{getattr(formula, 'line', 0) or '?'}"
-                raise InputError(
-                    f"{where}: the problem's :goal is not a conjunction of atoms "
-                    f"({type(formula).__name__.lower()}); give the goal with -g"
-                )
-        if not literals:
+        goal = self.pddl.problem.goal
+        if isinstance(goal, And) and not goal.parts:
             raise InputError(f"{self.problem_file}: the problem has no :goal to plan for; give one with -g")
-        return " & ".join(literals)
+        return _goal_text(goal, self.problem_file)
+
+    def resolve_goal(self, goal: str | Goal | Iterable[Atom | str]) -> tuple[Scenario, Goal]:
+        """The goal resolved, with the scenario to plan it in: this one, or this one with the negated
+        twins its negative literals need (:func:`hbtp.logic.negation.with_negations`)."""
+        needed = self.task.negations_needed(goal)
+        scenario = self.with_negations(needed) if needed else self
+        return scenario, scenario.task.resolve_goal(goal)
+
+    def with_negations(self, atom_ids: Iterable[int]) -> Scenario:
+        """This scenario with negated twins for ``atom_ids`` (kept: asking again gives the same object)."""
+        task = with_negations(self.task, atom_ids)
+        if task is self.task:
+            return self
+        return self.task.derived(
+            (Scenario.with_negations, task),
+            lambda: dataclasses.replace(self, task=task, mutexes=with_negation_groups(self.mutexes, task)),
+        )
 
     def summary(self) -> dict[str, Any]:
         """The figures ``hbtp scenarios`` prints."""

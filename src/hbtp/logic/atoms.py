@@ -4,7 +4,9 @@ Inside a grounded task atoms are interned to integers; :class:`Atom` is what use
 write. The same shape names a grounded action (``Walk(apple)``).
 
 Two spellings are accepted everywhere: ``IsIn(milk,fridge)`` and the datasets' ``IsIn_milk_fridge``
-(the first ``_`` separates the predicate, the others separate arguments).
+(the first ``_`` separates the predicate, the others separate arguments). A leading ``~`` negates a
+literal (``~IsOpen_fridge``: the fridge is not open); see :mod:`hbtp.logic.negation` for how a task
+plans with negative literals.
 """
 
 from __future__ import annotations
@@ -30,25 +32,42 @@ def _quoted(text: str) -> str:
 
 @dataclass(frozen=True, slots=True, order=True)
 class Atom:
-    """A predicate applied to objects: ``IsIn(milk,fridge)``; also used for action names."""
+    """A predicate applied to objects: ``IsIn(milk,fridge)``; also used for action names.
+
+    ``negated`` makes it the literal ``~IsIn(milk,fridge)``, which holds when the atom does not.
+    """
 
     predicate: str
     args: tuple[str, ...] = ()
+    negated: bool = False
 
     def __str__(self) -> str:
-        return f"{self.predicate}({','.join(self.args)})"
+        return f"{'~' if self.negated else ''}{self.predicate}({','.join(self.args)})"
 
     @property
     def underscored(self) -> str:
-        """The datasets' spelling, ``IsIn_milk_fridge``."""
-        return "_".join((self.predicate, *self.args))
+        """The datasets' spelling, ``IsIn_milk_fridge`` (``~IsIn_milk_fridge`` when negated)."""
+        return ("~" if self.negated else "") + "_".join((self.predicate, *self.args))
+
+    @property
+    def positive(self) -> Atom:
+        """The atom without its negation."""
+        return Atom(self.predicate, self.args) if self.negated else self
+
+    def negate(self) -> Atom:
+        """The complementary literal."""
+        return Atom(self.predicate, self.args, not self.negated)
 
 
 def parse_atom(text: str) -> Atom:
-    """Read ``IsIn(milk,fridge)``, ``IsIn(milk, fridge)`` or ``IsIn_milk_fridge``.
+    """Read ``IsIn(milk,fridge)``, ``IsIn(milk, fridge)`` or ``IsIn_milk_fridge``, each optionally
+    negated by a leading ``~``.
 
     Raises :class:`InputError` on anything else.
     """
+    stripped = text.strip()
+    if stripped.startswith("~"):
+        return parse_atom(stripped[1:]).negate() if not stripped[1:].lstrip().startswith("~") else _malformed(text)
     match = _PAREN_FORM.match(text)
     if match:
         inner = match.group(2).strip()
@@ -63,6 +82,10 @@ def parse_atom(text: str) -> Atom:
             raise InputError(f"malformed literal {_quoted(text)}")
         return Atom(predicate, tuple(rest))
     raise InputError(f"malformed literal {_quoted(text)} (expected Pred(a,b) or Pred_a_b)")
+
+
+def _malformed(text: str) -> Atom:
+    raise InputError(f"malformed literal {_quoted(text)} (at most one ~ negates a literal)")
 
 
 def split_conjunction(text: str) -> list[str]:

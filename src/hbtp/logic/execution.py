@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 from hbtp.errors import InputError
-from hbtp.logic.task import GroundTask, State
+from hbtp.logic.task import GoalIds, GroundTask, State, disjuncts_of
 
 log = logging.getLogger(__name__)
 
@@ -178,9 +178,9 @@ class Run:
     def hit_limit(self) -> bool:
         return self.status is NodeStatus.RUNNING
 
-    def reached(self, goal_ids: frozenset[int]) -> bool:
-        """The last tick returned SUCCESS and the goal holds in the final state."""
-        return self.succeeded and goal_ids <= self.final_state
+    def reached(self, goal: GoalIds) -> bool:
+        """The last tick returned SUCCESS and the goal (one of its disjuncts) holds in the final state."""
+        return self.succeeded and any(d <= self.final_state for d in disjuncts_of(goal))
 
     def to_dict(self, task: GroundTask) -> dict[str, Any]:
         return {

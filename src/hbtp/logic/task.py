@@ -18,7 +18,8 @@ from functools import cached_property
 from typing import Any, TypeVar, cast
 
 from hbtp.errors import InputError, UnknownSymbolError
-from hbtp.logic.atoms import Atom, parse_atom, parse_conjunction
+from hbtp.logic.atoms import Atom, parse_atom
+from hbtp.logic.goals import parse_goal
 
 State = frozenset[int]
 _T = TypeVar("_T")
@@ -57,18 +58,76 @@ class GroundAction:
 
 @dataclass(frozen=True)
 class Goal:
-    """A conjunctive goal, resolved against a task.
+    """A goal in disjunctive normal form, resolved against a task.
 
-    ``atoms`` keeps the user's order. ``unreachable`` lists well-formed literals that no action adds
-    and the initial state lacks: the goal is then unsolvable.
+    ``terms`` are the goal's conjunctions as written (names in their declared spelling, literals
+    possibly negated); ``disjuncts`` the atom-id sets of the terms that can be satisfied, without
+    the ones another disjunct makes redundant (a superset of another). A goal holds in a state when
+    one of its disjuncts does. ``unreachable`` lists well-formed literals that no action makes true
+    and s0 does not hold; ``reachable`` are the disjuncts without one (the search's roots), and
+    ``contradictory`` the terms left out because they ask for a literal and its negation. When no
+    disjunct is reachable, the goal is unsolvable for those reasons.
     """
 
-    atoms: tuple[Atom, ...]
-    ids: frozenset[int]
+    terms: tuple[tuple[Atom, ...], ...]
+    disjuncts: tuple[frozenset[int], ...]
     unreachable: tuple[Atom, ...] = ()
+    contradictory: tuple[tuple[Atom, ...], ...] = ()
+    reachable: tuple[frozenset[int], ...] = ()
 
     def __str__(self) -> str:
-        return " & ".join(a.underscored for a in self.atoms)
+        return " | ".join(" & ".join(a.underscored for a in term) for term in self.terms)
+
+    @property
+    def atoms(self) -> tuple[Atom, ...]:
+        """Every literal of the goal, in the order written."""
+        return tuple(dict.fromkeys(atom for term in self.terms for atom in term))
+
+    @property
+    def conjunctive(self) -> bool:
+        """Whether the goal is one conjunction (the paper's goals)."""
+        return len(self.terms) == 1
+
+    @property
+    def ids(self) -> frozenset[int]:
+        """The atom ids of a conjunctive goal (raises ``ValueError`` for a disjunction)."""
+        if len(self.disjuncts) == 1:
+            return self.disjuncts[0]
+        if not self.disjuncts:
+            return frozenset()
+        raise ValueError(f"the goal {self} is a disjunction: use Goal.disjuncts or Goal.holds")
+
+    @property
+    def literal_ids(self) -> frozenset[int]:
+        """The atom ids of every disjunct together (what a heuristic must reach)."""
+        return frozenset().union(*self.disjuncts)
+
+    def holds(self, state: Iterable[int]) -> bool:
+        """Whether one of the disjuncts holds in ``state``."""
+        present = state if isinstance(state, frozenset | set) else frozenset(state)
+        return any(d <= present for d in self.disjuncts)
+
+    @property
+    def unsolvable(self) -> str | None:
+        """Why no state can satisfy the goal (no disjunct is left), or ``None``."""
+        if self.reachable:
+            return None
+        reasons: list[str] = []
+        if self.unreachable:
+            reasons.append(f"no action makes {listing(str(a) for a in self.unreachable)} true and s0 does not hold it")
+        for term in self.contradictory[:3]:
+            reasons.append(f"{' & '.join(a.underscored for a in term)} asks for a literal and its negation")
+        return "; ".join(reasons) or "the goal has no alternative"
+
+
+#: What a goal can be given as where only its meaning matters: a :class:`Goal`, or the atom ids of
+#: a conjunction.
+GoalIds = Goal | Iterable[int]
+
+
+def disjuncts_of(goal: GoalIds) -> tuple[frozenset[int], ...]:
+    """The disjuncts of ``goal`` (one for a conjunction given by its atom ids)."""
+    return goal.disjuncts if isinstance(goal, Goal) else (frozenset(goal),)
 
 
 @dataclass(frozen=True, eq=False)
@@ -132,9 +191,23 @@ class GroundTask:
                 table.setdefault(fact.predicate, []).append(fact.args[0])
         return {name: tuple(sorted(members)) for name, members in sorted(table.items())}
 
+    @cached_property
+    def negation_ids(self) -> dict[int, int]:
+        """For each atom that has a negated twin (``~p``, see :mod:`hbtp.logic.negation`), the twin's id."""
+        ids = self.atom_ids
+        return {ids[atom.positive]: i for i, atom in enumerate(self.atoms) if atom.negated and atom.positive in ids}
+
+    def complete(self, positives: Iterable[int]) -> State:
+        """The state in which exactly ``positives`` of the positive atoms hold: each negated twin is
+        added where its atom is absent (an observed or edited state, given by what is true)."""
+        state = {i for i in positives if not self.atoms[i].negated}
+        state.update(neg for pos, neg in self.negation_ids.items() if pos not in state)
+        return frozenset(state)
+
     #: The lookups above that do not depend on s0 (kept by :meth:`from_state`).
     _STATE_FREE = (
-        "atom_ids", "action_ids", "action_predicates", "achievers", "symbols", "static_arities", "categories"
+        "atom_ids", "action_ids", "action_predicates", "achievers", "symbols", "static_arities", "categories",
+        "negation_ids",
     )  # fmt: skip
 
     def from_state(self, state: Iterable[int]) -> GroundTask:
@@ -198,7 +271,7 @@ class GroundTask:
         args = tuple(objects.get(arg.lower(), arg) for arg in atom.args)
         if predicate == atom.predicate and args == atom.args:
             return atom
-        return Atom(predicate, args)
+        return Atom(predicate, args, atom.negated)
 
     def atom_id(self, atom: Atom | str) -> int:
         """The id of a literal known to the task; raises :class:`UnknownSymbolError` otherwise."""
@@ -227,7 +300,7 @@ class GroundTask:
     def check_literal(self, atom: Atom) -> None:
         """Raise :class:`UnknownSymbolError` unless ``atom`` is well formed for this domain (names are
         case-insensitive; see :meth:`spelled`)."""
-        atom = self.spelled(atom)
+        atom = self.spelled(atom).positive
         arity = self.predicates.get(atom.predicate)
         if arity is None:
             static_arity = self.static_arities.get(atom.predicate)
@@ -245,30 +318,94 @@ class GroundTask:
             hint = did_you_mean(unknown[0], self.symbols)
             raise UnknownSymbolError(f"unknown object {unknown[0]!r} in {atom}{hint}")
 
-    def resolve_goal(self, goal: str | Iterable[Atom | str]) -> Goal:
-        """Resolve a goal text (``IsIn_milk_fridge & IsClose(fridge)``) or atoms against this task."""
-        if isinstance(goal, str):
-            atoms = tuple(self.spelled(a) for a in parse_conjunction(goal))
+    def goal_terms(self, goal: str | Goal | Iterable[Atom | str]) -> tuple[tuple[Atom, ...], ...]:
+        """The terms of a goal text (infix or PDDL, see :mod:`hbtp.logic.goals`), of a goal resolved
+        against another task, or of one conjunction of literals; names in their declared spelling."""
+        if isinstance(goal, Goal):
+            raw = goal.terms
+        elif isinstance(goal, str):
+            raw = parse_goal(goal)
         else:
-            atoms = tuple(self.spelled(parse_atom(a) if isinstance(a, str) else a) for a in goal)
-            if not atoms:
-                raise InputError("empty goal")
-        ids: set[int] = set()
+            raw = (tuple(parse_atom(a) if isinstance(a, str) else a for a in goal),)
+        terms = tuple(tuple(dict.fromkeys(self.spelled(a) for a in term)) for term in raw)
+        if not terms or not any(terms):
+            raise InputError("empty goal")
+        return terms
+
+    def negations_needed(self, goal: str | Goal | Iterable[Atom | str]) -> frozenset[int]:
+        """The atoms whose negated twin a goal needs and this task lacks (see :meth:`resolve_goal`)."""
+        needed: set[int] = set()
+        for term in self.goal_terms(goal):
+            for atom in term:
+                atom_id = self.atom_ids.get(atom.positive)
+                if (
+                    atom.negated
+                    and atom_id is not None
+                    and atom_id not in self.negation_ids
+                    and self._negation_matters(atom_id)
+                ):
+                    needed.add(atom_id)
+        return frozenset(needed)
+
+    def _negation_matters(self, atom_id: int) -> bool:
+        """Whether ``~atom`` can be false in some reachable state (s0 holds the atom, or an action adds it)."""
+        return atom_id in self.initial_state or bool(self.achievers[atom_id])
+
+    def resolve_goal(self, goal: str | Goal | Iterable[Atom | str]) -> Goal:
+        """Resolve a goal (``IsIn_milk_fridge & ~IsOpen(fridge) | IsOn_milk_table``, a PDDL goal, a
+        goal of another task or a conjunction of literals) against this task.
+
+        A negative literal ``~p`` needs ``p``'s negated twin in the task unless it always holds (no
+        action adds ``p`` and s0 lacks it: it is dropped); :meth:`negations_needed` says which are
+        missing, and :func:`hbtp.logic.negation.with_negations` adds them.
+        """
+        disjuncts: list[frozenset[int]] = []
         unreachable: list[Atom] = []
-        for atom in atoms:
+        contradictory: list[tuple[Atom, ...]] = []
+        live: list[frozenset[int]] = []
+        for term in self.goal_terms(goal):
+            ids, missing = self._term_ids(term)
+            if ids is None:
+                contradictory.append(term)
+                continue
+            unreachable.extend(a for a in missing if a not in unreachable)
+            disjuncts.append(ids)
+            if not missing:
+                live.append(ids)
+        kept = tuple(
+            d for i, d in enumerate(disjuncts) if not any(o < d or (o == d and j < i) for j, o in enumerate(disjuncts))
+        )
+        roots = tuple(d for d in kept if d in live)
+        return Goal(self.goal_terms(goal), kept, tuple(unreachable), tuple(contradictory), roots)
+
+    def _term_ids(self, term: tuple[Atom, ...]) -> tuple[frozenset[int] | None, list[Atom]]:
+        """The atom ids of one conjunction, and its literals that can never hold (``None`` ids when
+        it asks for a literal and its negation)."""
+        ids: set[int] = set()
+        missing: list[Atom] = []
+        for atom in term:
             self.check_literal(atom)
             if atom.predicate not in self.predicates:
                 raise InputError(f"{atom} is a static fact of the domain, not a goal literal")
-            atom_id = self.atom_ids.get(atom)
-            if atom_id is None:
-                unreachable.append(atom)
-            else:
-                ids.add(atom_id)
-        reachable_now = set(self.initial_state)
-        for atom_id in ids:
-            if atom_id not in reachable_now and not self.achievers[atom_id]:
-                unreachable.append(self.atoms[atom_id])
-        return Goal(atoms, frozenset(ids), tuple(unreachable))
+            atom_id = self.atom_ids.get(atom.positive)
+            if not atom.negated:
+                if atom_id is None or (atom_id not in self.initial_state and not self.achievers[atom_id]):
+                    missing.append(atom)
+                if atom_id is not None:
+                    ids.add(atom_id)
+            elif atom_id is not None and self._negation_matters(atom_id):
+                twin = self.negation_ids.get(atom_id)
+                if twin is None:
+                    raise InputError(
+                        f"the goal literal {atom} needs the task with negated literals "
+                        "(resolve the goal through its scenario, or hbtp.logic.negation.with_negations)"
+                    )
+                if twin not in self.initial_state and not self.achievers[twin]:
+                    missing.append(atom)
+                ids.add(twin)
+        if any(self.negation_ids.get(i) in ids for i in ids):
+            return None, missing
+        return frozenset(ids), missing
 
     # ---------------------------------------------------------------- execute
     def execute(self, actions: Sequence[GroundAction], state: State | None = None) -> tuple[State, int]:

@@ -88,7 +88,7 @@ def plan_auto(
     options = options or LoopOptions()
     started = time.perf_counter()
     deadline = math.inf if options.time_limit is None else started + options.time_limit
-    resolved = scenario.task.resolve_goal(goal) if isinstance(goal, str) else goal
+    scenario, resolved = scenario.resolve_goal(goal)
     budget = min(probe_seconds, max(deadline - started, 1e-9))
     probe = plan(
         scenario.task,

@@ -194,7 +194,7 @@ class _Loop:
         #: The same bound for grounding a part of the world, or all of it.
         self.limit = None if options.time_limit is None else Deadline(options.time_limit, started)
         self.world, self.names, self.goal = world, world.names, goal
-        self.goal_task = world.part(frozenset(), frozenset()).task
+        self.goal_task = world.part(frozenset(), frozenset()).resolve_goal(goal)[0].task
         self.pool, self.options = pool, options
         self.prompt = options.prompt.for_backend(backend.prompt_style)
         self.config = planner_config(options.planner, heuristic=options.heuristic)
@@ -250,6 +250,7 @@ class _Loop:
         except TimeLimitReached as stop:
             log.info("round %d: %s", number, stop)
             return None
+        scenario, goal = self.goal_in(scenario)
         task = scenario.task
         hints = resolve_hints(task, self.hints)
         space = task.restricted(pruned_action_space(task, hints))
@@ -258,7 +259,7 @@ class _Loop:
         # answer, so it must not rest on them (confirmed_search re-decides it without them).
         result = (search if self.options.fallback else confirmed_search)(
             task,
-            self.goal_in(scenario),
+            goal,
             space,
             self.config,
             mutexes=scenario.mutexes,
@@ -271,9 +272,12 @@ class _Loop:
         self.last = result
         return result
 
-    def goal_in(self, scenario: Scenario) -> Goal:
-        """The goal in ``scenario``'s atoms (a part of a world has atoms of its own)."""
-        return self.goal if scenario.task is self.goal_task else scenario.task.resolve_goal(self.goal.atoms)
+    def goal_in(self, scenario: Scenario) -> tuple[Scenario, Goal]:
+        """``scenario`` (with the negated twins the goal needs) and the goal in its atoms (a part of a
+        world has atoms of its own)."""
+        if scenario.task is self.goal_task:
+            return scenario, self.goal
+        return scenario.resolve_goal(self.goal)
 
     def feedback(self) -> Feedback:
         """What the last round's failure tells the model: its longest paths and what its space left out."""
@@ -305,11 +309,12 @@ class _Loop:
         except TimeLimitReached as stop:
             timeout = PlanResult(Status.TIMEOUT, self.options.planner, self.goal, message=str(stop))
             return self.result(Outcome.FAILED, timeout)
+        whole, goal = self.goal_in(whole)
         self.scenario = whole
         # The fallback prunes with proved mutexes only: declared ones could cut off the only solution.
         final = plan(
             whole.task,
-            self.goal_in(whole),
+            goal,
             self.options.planner,
             hints=resolve_hints(whole.task, self.hints),
             space="full",
@@ -347,5 +352,5 @@ def run_hbtp(
     if isinstance(world, Scenario):
         world = GroundedWorld(world)
     if isinstance(goal, str):  # checked against the world's names, its static facts and its objects
-        goal = world.part(frozenset(), frozenset()).task.resolve_goal(goal)
+        goal = world.part(frozenset(), frozenset()).resolve_goal(goal)[1]
     return _Loop(world, goal, backend, pool, options).run()

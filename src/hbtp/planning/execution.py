@@ -1,5 +1,8 @@
 """The tree of a search as a policy: Fallback(goal, Sequence(c1,a1), Sequence(c2,a2), ...).
 
+The goal is the first expansions without an action: one per disjunct of the goal (a conjunctive
+goal has one), each a success branch.
+
 The branches are ordered by (real cost from the condition to the goal, expansion index): at every
 tick the cheapest explored condition that holds selects its action. The action of a branch leads to
 a state satisfying its parent, whose cost to the goal is lower by the action's cost and which was
@@ -23,24 +26,28 @@ from hbtp.logic.task import GroundTask, State
 from hbtp.planning.result import Expansion
 
 
+def goal_roots(expansions: Sequence[Expansion]) -> list[int]:
+    """The expansions of the goal's disjuncts (those without an action), in order."""
+    return [index for index, expansion in enumerate(expansions) if expansion.action is None]
+
+
 def branch_order(expansions: Sequence[Expansion]) -> list[int]:
-    """The expansions of the tree's branches (all but the goal), cheapest cost to the goal first,
-    then in expansion order (the sort is stable)."""
+    """The expansions of the tree's action branches (all but the goal's), cheapest cost to the goal
+    first, then in expansion order (the sort is stable)."""
     costs = [expansion.cost_to_goal for expansion in expansions]
-    return sorted(range(1, len(expansions)), key=costs.__getitem__)
+    branches = [index for index, expansion in enumerate(expansions) if expansion.action is not None]
+    return sorted(branches, key=costs.__getitem__)
 
 
-def execute_expansions(
-    task: GroundTask, goal: frozenset[int], expansions: Sequence[Expansion], state: State | None = None
-) -> Run:
+def execute_expansions(task: GroundTask, expansions: Sequence[Expansion], state: State | None = None) -> Run:
     """Tick the expansion tree from ``state`` (default s0) until the goal holds or nothing applies.
 
     A branch's condition was regressed through its action, so it includes the action's
-    precondition: the first-match list of (goal, success), then (c_i, a_i), is the tree.
+    precondition: the first-match list of (goal disjunct, success)..., then (c_i, a_i), is the tree.
     """
-    table: list[tuple[frozenset[int], int | None]] = [(goal, None)]
+    table: list[tuple[frozenset[int], int | None]] = [(expansions[i].condition, None) for i in goal_roots(expansions)]
     table += [(expansions[i].condition, expansions[i].action) for i in branch_order(expansions)]
     return execute(first_match(table), task, state, max_ticks=len(expansions) + 1)
 
 
-__all__ = ["branch_order", "execute_expansions"]
+__all__ = ["branch_order", "execute_expansions", "goal_roots"]

@@ -152,10 +152,11 @@ def _declared_pruned(result: PlanResult, mutexes: Mutexes) -> bool:
     """Whether ``result`` is an UNSOLVABLE verdict that declared mutexes took part in."""
     if result.status is not Status.UNSOLVABLE or not mutexes.declared:
         return False
-    goal = result.goal.ids
-    if mutexes.proved_only().conflict(goal) is not None:
-        return False  # a proved clash in the goal is a proof
-    return result.stats.pruned_mutex > 0 or mutexes.conflict(goal) is not None
+    disjuncts = result.goal.disjuncts
+    proved = mutexes.proved_only()
+    if disjuncts and all(proved.conflict(d) is not None for d in disjuncts):
+        return False  # a proved clash in every disjunct of the goal is a proof
+    return result.stats.pruned_mutex > 0 or any(mutexes.conflict(d) is not None for d in disjuncts)
 
 
 def _remaining(limits: Limits, used: SearchStats) -> Limits | Status:

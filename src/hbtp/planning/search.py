@@ -1,6 +1,7 @@
 """The one backward best-first search of BT planning (the paper's Algorithm 1).
 
-Starting from the goal, a condition ``c`` is expanded by regressing it through every action ``a``
+Starting from the goal (from each of its disjuncts at once, all at g = 0, so that OBTEA is optimal
+over the whole disjunction), a condition ``c`` is expanded by regressing it through every action ``a``
 that adds one of its literals and deletes none (``c_a = pre(a) | (c - add(a))``). Conditions are
 taken off the open list by priority; every expanded condition becomes a ``Sequence(c, a)`` of the
 behavior tree; the search stops when an expanded condition holds in s0.
@@ -148,22 +149,23 @@ def search(
         stats = SearchStats(time_s=time.perf_counter() - started, action_space=len(actions))
         return PlanResult(status, config.name, goal, message=message, stats=stats)
 
-    if goal.unreachable:
-        names = listing(str(a) for a in goal.unreachable)
-        return finish(Status.UNSOLVABLE, f"no action makes {names} true and s0 does not hold it")
+    unsolvable = goal.unsolvable
+    if unsolvable is not None:
+        return finish(Status.UNSOLVABLE, unsolvable)
     if mutexes is not None:
-        clash = mutexes.conflict(goal.ids)
-        if clash is not None:
-            names = " and ".join(task.names(clash))
+        clashes = [mutexes.conflict(d) for d in goal.reachable]
+        if all(clash is not None for clash in clashes):
+            names = "; ".join(" and ".join(task.names(clash)) for clash in clashes if clash is not None)
             return finish(Status.UNSOLVABLE, f"the goal asks for {names}, which cannot hold together")
     with _MEMORY.collector_paused():
         try:
             run = _Search(task, goal, actions, config, mutexes, hints, LimitWatch(limits, started), extra_expansions)
         except TimeLimitReached as stop:
             return finish(Status.TIMEOUT, str(stop))
-        heuristic = run.heuristic
-        if heuristic is not None and math.isinf(heuristic(goal.ids)):
-            dead = [a for a in sorted(goal.ids) if math.isinf(heuristic((a,)))]
+        if not run.live_roots():
+            heuristic = run.heuristic
+            assert heuristic is not None
+            dead = sorted({a for d in goal.disjuncts for a in d if math.isinf(heuristic((a,)))})
             names = listing(task.names(dead)) or str(goal)
             return finish(Status.UNSOLVABLE, f"{names} cannot be reached from s0 with this action space")
         result = run.run()
@@ -237,7 +239,7 @@ class _Search:
         # orders the search (A*) unless the costs say otherwise; for every planner it drops dead ends.
         discounts = {i: float(self.owed_cost(task.actions[i])) for i in self.path_index}
         self.heuristic: Heuristic | None = build_heuristic(
-            config.heuristic, task, actions, goal.ids, scale=float(costs.scale), discounts=discounts,
+            config.heuristic, task, actions, goal.literal_ids, scale=float(costs.scale), discounts=discounts,
             deadline=watch.as_deadline(),
         )  # fmt: skip
         self.astar = self.heuristic is not None and costs.orders_by_heuristic
@@ -246,6 +248,7 @@ class _Search:
         # child's priority exceeds its parent's g (see adders_of).
         self.adders: dict[int, list[tuple[Number, int]]] = {}
 
+        self.mutexes = mutexes
         self.nodes: dict[frozenset[int], _Node] = {}
         self.open: list[_Entry] = []
         self.counter = 0
@@ -301,11 +304,24 @@ class _Search:
         heapq.heappush(self.open, entry)
 
     # -------------------------------------------------------------------- run
+    def live_roots(self) -> list[frozenset[int]]:
+        """The goal's disjuncts the search expands: those that no mutex rules out and whose
+        heuristic value is finite (the others stay in the tree as goal checks)."""
+        mutexes, heuristic = self.mutexes, self.heuristic
+        return [
+            d
+            for d in self.goal.reachable
+            if (mutexes is None or mutexes.conflict(d) is None) and (heuristic is None or not math.isinf(heuristic(d)))
+        ]
+
     def run(self) -> PlanResult:
-        goal_condition = self.goal.ids
-        root = _Node(0, 0, self.initial_owed, None, None)
-        self.nodes[goal_condition] = root
-        self.push(goal_condition, root, self.priority(goal_condition, 0), False)
+        for condition in self.goal.disjuncts:
+            root = _Node(0, 0, self.initial_owed, None, None)
+            self.nodes[condition] = root
+            self.record(condition, root)
+        for condition in self.live_roots():
+            self.push(condition, self.nodes[condition], self.priority(condition, 0), False)
+        roots = frozenset(self.goal.disjuncts)
         final: frozenset[int] | None = None
         open_list = self.open
         nodes = self.nodes
@@ -323,7 +339,7 @@ class _Search:
                 continue
             if node.closed or node.g != entry_g:
                 continue  # stale entry
-            if condition is not goal_condition and expanded.has_subset(condition, node.g):
+            if condition not in roots and expanded.has_subset(condition, node.g):
                 self.pruned_subset += 1
                 continue
             self.close(condition, node)
@@ -349,6 +365,11 @@ class _Search:
 
     def close(self, condition: frozenset[int], node: _Node) -> None:
         node.closed = True
+        if condition not in self.position:  # the goal's disjuncts are recorded at the start
+            self.record(condition, node)
+
+    def record(self, condition: frozenset[int], node: _Node) -> None:
+        """Add ``condition`` to the expansion record (the tree) and to the subset index."""
         parent_position = -1 if node.parent is None else self.position[node.parent]
         self.position[condition] = len(self.expansions)
         self.expansions.append(Expansion(condition, node.action, parent_position, node.cost))
@@ -470,7 +491,7 @@ class _Search:
             )
             return PlanResult(status, name, goal, expansions, stats=stats, message=message)
         path = self.path_to_goal(final)
-        run = execute_expansions(self.task, goal.ids, expansions)
+        run = execute_expansions(self.task, expansions)
         if not run.succeeded:  # cannot happen: every Sequence(c, a) leads to an earlier condition
             log.error("%s: the tree did not reach the goal from s0 (a bug)", name)
             message = "internal error: the tree did not reach the goal when executed from s0"
