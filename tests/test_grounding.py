@@ -197,7 +197,10 @@ def _names_of_actions(task: GroundTask) -> list[str]:
             " :effect (Done ?x))",
             "disjunction",
         ),
-        ("(:action Peek :parameters (?x) :precondition (not (Near ?x)) :effect (Done ?x))", "negated fluent"),
+        (
+            "(:action Peek :parameters (?x) :precondition (not (and (Near ?x) (Holding ?x))) :effect (Done ?x))",
+            "negated conjunction of fluent",
+        ),
         ("(:action Peek :parameters (?x) :precondition (imply (Near ?x) (red ?x)) :effect (Done ?x))", "imply"),
         ("(:action Peek :parameters (?x) :effect (when (Near ?x) (Done ?x)))", "conditional effect"),
     ],

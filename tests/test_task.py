@@ -145,7 +145,8 @@ def test_literal_that_is_never_grounded_is_unreachable(kitchen: GroundTask) -> N
     # Well formed (known predicate and objects) but no action mentions it.
     goal = kitchen.resolve_goal("IsIn(fridge,milk) & IsOpen(fridge)")
     assert goal.unreachable == (Atom("IsIn", ("fridge", "milk")),)
-    assert goal.ids == _state(kitchen, "IsOpen(fridge)")
+    assert goal.disjuncts == ()  # no state holds a literal that is no atom of the task
+    assert "no action makes IsIn(fridge,milk) true" in (goal.unsolvable or "")
 
 
 def test_literal_without_achiever_is_unreachable_unless_true_in_s0(kitchen: GroundTask) -> None:
@@ -155,12 +156,14 @@ def test_literal_without_achiever_is_unreachable_unless_true_in_s0(kitchen: Grou
     assert kitchen.resolve_goal("IsStanding(self)").unreachable == ()
 
 
-def test_static_facts_are_not_goals(robothow_small: Scenario) -> None:
+def test_static_literals_of_a_goal_are_evaluated(robothow_small: Scenario) -> None:
     task = robothow_small.task
     assert "grabbable" not in task.predicates
-    with pytest.raises(InputError, match="static fact") as info:
-        task.resolve_goal("IsOpen(fridge) & grabbable(apple)")
-    assert not isinstance(info.value, UnknownSymbolError)
+    assert task.resolve_goal("IsOpen(fridge) & grabbable(apple)").ids == {task.atom_id("IsOpen(fridge)")}
+    assert task.resolve_goal("IsOpen(fridge) & ~grabbable(fridge)").ids == {task.atom_id("IsOpen(fridge)")}
+    false = task.resolve_goal("IsOpen(fridge) & grabbable(fridge) | IsOpen(fridge) & ~grabbable(apple)")
+    assert false.disjuncts == ()
+    assert false.unsolvable is not None
     # A static predicate is still checked for its arity and objects.
     with pytest.raises(UnknownSymbolError, match="takes 1 argument"):
         task.resolve_goal("grabbable(apple,plate)")
@@ -171,7 +174,10 @@ def test_unreachable_literals_of_a_scenario(robothow_small: Scenario) -> None:
     # The fridge has a plug but no switch: IsSwitchedOff(fridge) is needed by PlugOut(fridge) yet never holds.
     goal = task.resolve_goal("IsSwitchedOff(fridge) & IsOn(wine,wine) & IsOpen(fridge)")
     assert set(goal.unreachable) == {Atom("IsOn", ("wine", "wine")), Atom("IsSwitchedOff", ("fridge",))}
-    assert goal.ids == {task.atom_id("IsSwitchedOff(fridge)"), task.atom_id("IsOpen(fridge)")}
+    assert goal.disjuncts == ()
+    reachable_later = task.resolve_goal("IsSwitchedOff(fridge) & IsOpen(fridge)")
+    assert reachable_later.ids == {task.atom_id("IsSwitchedOff(fridge)"), task.atom_id("IsOpen(fridge)")}
+    assert reachable_later.reachable == ()  # it can hold (after a disturbance) but no plan reaches it
 
 
 def test_categories_are_unary_static_facts(robothow_small: Scenario) -> None:
@@ -192,8 +198,8 @@ def test_a_10000_literal_goal_is_resolved_or_rejected_in_one_pass(robothow: Scen
     assert len(goal.atoms) == 10_000
     assert [str(a) for a in goal.atoms] == pairs
     assert goal.unreachable  # most of these literals are never grounded
-    with pytest.raises(InputError, match="static fact"):
-        task.resolve_goal(" & ".join([*pairs, "grabbable(apple)"]))
+    with pytest.raises(UnknownSymbolError, match="takes 1 argument"):
+        task.resolve_goal(" & ".join([*pairs, "grabbable(apple,plate)"]))
 
 
 def test_derived_tables_are_built_once_per_task_and_not_pickled(kitchen: GroundTask) -> None:

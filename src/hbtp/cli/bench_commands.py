@@ -11,6 +11,7 @@ import click
 
 from hbtp.bench.fig3 import Fig3Config, run_fig3
 from hbtp.bench.fig4 import Fig4Config, run_fig4
+from hbtp.bench.instructions import InstructionsBench, report, run_instructions
 from hbtp.bench.payoff import SETS, PayoffConfig, run_payoff
 from hbtp.bench.pddl_suite import PddlConfig, run_pddl
 from hbtp.bench.runner import Execution
@@ -30,7 +31,7 @@ from hbtp.cli.options import (
 )
 from hbtp.datasets import read_dataset_file
 from hbtp.domains import scenario_names
-from hbtp.llm.backends.registry import BackendOptions
+from hbtp.llm.backends.registry import BackendOptions, make_goal_backend
 from hbtp.llm.prompt import PromptOptions
 from hbtp.pipeline import LoopOptions
 from hbtp.planning import PLANNERS
@@ -453,4 +454,34 @@ def pddl(
                    f"{m['reference_cost']} ({m['reference_source']})")  # fmt: skip
     click.echo(f"{len(summary['mismatches'])} mismatch(es) in {summary['compared']} compared runs")
     click.echo(f"wrote {Path(out_dir)}/results.jsonl, summary.json, report.md (and coverage.png with the plot extra)")
+    return 0
+
+
+@bench.command("instructions")
+@click.option("-s", "--scenario", "scenarios", multiple=True, help="Scenario(s); default all four.")
+@click.option("--llm", "llm_spec", default="local", show_default=True, help="local, openai, oracle or replay:FILE.")
+@click.option("--limit", type=click.IntRange(min=1), help="Only the first N records per scenario.")
+@click.option(
+    "--phrasings", type=click.IntRange(1, 10), default=2, show_default=True, help="Phrasings asked per record."
+)
+@feedback_rounds_option("Answers asked again, with the objections to the last, before giving up.")
+@backend_options
+@out_dir_option
+def instructions(
+    scenarios: tuple[str, ...],
+    llm_spec: str,
+    limit: int | None,
+    phrasings: int,
+    feedback_rounds: int,
+    backend: BackendOptions,
+    out_dir: str,
+) -> int:
+    """Instructions to goals: accuracy, rounds, LLM time and end-to-end success on the instruction dataset."""
+    chosen = tuple(scenarios) or scenario_names()
+    bench_config = InstructionsBench(chosen, llm_spec, limit, phrasings, feedback_rounds)
+    summary = run_instructions(
+        bench_config, lambda scenario: make_goal_backend(llm_spec, scenario, backend), Path(out_dir)
+    )
+    click.echo(report(summary).rstrip())
+    click.echo(f"wrote {Path(out_dir)}/results.jsonl, summary.json, report.md")
     return 0

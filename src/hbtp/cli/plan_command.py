@@ -19,6 +19,7 @@ from hbtp.cli.exit_codes import plan_exit_code
 from hbtp.cli.export_command import export_options
 from hbtp.cli.goal_input import GOAL_HELP, read_goal
 from hbtp.cli.hints_file import load_hints
+from hbtp.cli.instruction_input import INSTRUCTION_HELP, choose_goal
 from hbtp.cli.options import (
     ScenarioSource,
     backend_options,
@@ -41,6 +42,7 @@ from hbtp.llm.pool import example_pool
 from hbtp.llm.prompt import PromptOptions
 from hbtp.logic.task import Goal
 from hbtp.pipeline import DEFAULT_PROBE_SECONDS, AutoResult, LoopOptions, LoopResult, plan_auto, run_hbtp
+from hbtp.pipeline.instruct import GoalChoice
 from hbtp.pipeline.loop import Progress
 from hbtp.planning import PLANNER_DESCRIPTIONS, PLANNERS, Limits, plan
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
@@ -245,19 +247,27 @@ class PlanRequest:
     search: SearchRequest
     outputs: Outputs
     llm: LlmRequest
+    instruction: str | None = None  # --instruction: the goal comes from the LLM
+    chosen: GoalChoice | None = None  # what the LLM made of the instruction
 
 
 @click.command("plan")
 @scenario_options
 @click.option("-g", "--goal", help=GOAL_HELP + " Default: the --pddl problem's :goal.")
+@click.option("-i", "--instruction", help=INSTRUCTION_HELP)
 @search_options
 @output_options
 @llm_options
 def plan_command(
-    source: ScenarioSource, goal: str | None, search: SearchRequest, outputs: Outputs, llm: LlmRequest
+    source: ScenarioSource,
+    goal: str | None,
+    instruction: str | None,
+    search: SearchRequest,
+    outputs: Outputs,
+    llm: LlmRequest,
 ) -> int:
     """Plan a behavior tree that reaches GOAL; exit code 0 when solved, 1 when not."""
-    return run_plan(PlanRequest(source, goal, search, outputs, llm))
+    return run_plan(PlanRequest(source, goal, search, outputs, llm, instruction))
 
 
 def run_plan(request: PlanRequest) -> int:
@@ -265,6 +275,8 @@ def run_plan(request: PlanRequest) -> int:
     search = request.search
     # One deadline for the whole command: loading, grounding, heuristic set-up and every search.
     limits = search.limits().starting_now()
+    if request.instruction is not None:
+        request = _goal_of_instruction(request, limits)
     spec = request.llm.llm_spec
     if spec is not None and request.llm.pruned(request.source):
         return _run_pruned(spec, request, limits)
@@ -295,6 +307,20 @@ def run_plan(request: PlanRequest) -> int:
     )
     hints_label = search.hints_source if search.hints_source in ("none", "oracle") else "file"
     return report.finish(result, hints_label, None)
+
+
+def _goal_of_instruction(request: PlanRequest, limits: Limits) -> PlanRequest:
+    """``request`` with the goal the LLM made of its instruction (see :mod:`hbtp.cli.instruction_input`)."""
+    if request.goal is not None:
+        raise InputError("give the goal (-g) or an instruction (--instruction), not both")
+    options = request.llm
+    loaded = request.source.load(deadline=limits.deadline)
+    backend = replace(options.backend, seed=options.seed, record=options.record)
+    choice = choose_goal(
+        loaded, request.instruction or "", options.llm_spec, backend, rounds=options.feedback_rounds,
+        as_json=request.outputs.as_json,
+    )  # fmt: skip
+    return replace(request, goal=choice.goal, chosen=choice)
 
 
 def _run_llm(spec: str, request: PlanRequest, loaded: Scenario, goal: Goal) -> LoopResult:
@@ -489,6 +515,8 @@ class _Report:
             record["auto"] = auto.to_dict()
         if self.grounding is not None:
             record["grounding"] = self.grounding
+        if self.request.chosen is not None:
+            record["instruction"] = self.request.chosen.to_dict()
         echo_json(record)
 
     def _print_text(self, result: PlanResult, tree: Node | None, loop: LoopResult | None) -> None:

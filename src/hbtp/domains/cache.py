@@ -223,8 +223,8 @@ def encode(scenario: CachedScenario, name: str, key: str) -> bytes:
     def symbol(text: str) -> int:
         return symbols.setdefault(text, len(symbols))
 
-    def atom(value: Atom) -> list[int]:
-        return [symbol(value.predicate), *map(symbol, value.args)]
+    def atom(value: Atom) -> list[int]:  # a negated twin's predicate is written with its "~"
+        return [symbol(("~" if value.negated else "") + value.predicate), *map(symbol, value.args)]
 
     def ids(values: Iterable[int]) -> list[int]:
         return sorted(values)
@@ -257,6 +257,8 @@ def encode(scenario: CachedScenario, name: str, key: str) -> bytes:
             "predicate_names": [symbol(p) for p in task.predicates],
             "predicate_arities": list(task.predicates.values()),
             "static_facts": [atom(f) for f in sorted(task.static_facts)],
+            "static_predicate_names": [symbol(p) for p in task.static_predicates],
+            "static_predicate_arities": list(task.static_predicates.values()),
         },
         "mutexes": {
             "atom_count": mutexes.atom_count,
@@ -336,7 +338,8 @@ def _atoms(rows: object, symbols: Sequence[str], what: str, *, unique: bool = Fa
     if unique and len(set(map(tuple, checked))) != len(checked):
         _fail(f"{what} repeats an entry")
     name = symbols.__getitem__
-    return [Atom(name(row[0]), tuple(map(name, row[1:]))) for row in checked]
+    atoms = [Atom(name(row[0]), tuple(map(name, row[1:]))) for row in checked]
+    return [Atom(a.predicate[1:], a.args, True) if a.predicate.startswith("~") else a for a in atoms]
 
 
 def decode(data: bytes, name: str, key: str) -> CachedScenario:
@@ -381,6 +384,10 @@ def _decode_task(raw_task: Mapping[str, Any], symbols: Sequence[str]) -> GroundT
     arities = _ints(raw_task.get("predicate_arities"), "task.predicate_arities", sys.maxsize)
     if len(arities) != len(predicate_names) or len(set(predicate_names)) != len(predicate_names):
         _fail("task.predicate_names and task.predicate_arities do not match")
+    static_names = _ints(raw_task.get("static_predicate_names"), "task.static_predicate_names", symbol_count)
+    static_arities = _ints(raw_task.get("static_predicate_arities"), "task.static_predicate_arities", sys.maxsize)
+    if len(static_arities) != len(static_names):
+        _fail("task.static_predicate_names and task.static_predicate_arities do not match")
     return GroundTask(
         name=_field(raw_task, "name", str, "task"),
         atoms=tuple(atoms),
@@ -390,6 +397,7 @@ def _decode_task(raw_task: Mapping[str, Any], symbols: Sequence[str]) -> GroundT
         constants=tuple(symbols[i] for i in _ints(raw_task.get("constants"), "task.constants", symbol_count)),
         predicates={symbols[i]: arity for i, arity in zip(predicate_names, arities, strict=True)},
         static_facts=frozenset(_atoms(raw_task.get("static_facts"), symbols, "task.static_facts")),
+        static_predicates={symbols[i]: arity for i, arity in zip(static_names, static_arities, strict=True)},
     )
 
 

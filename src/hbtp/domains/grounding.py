@@ -59,6 +59,7 @@ from hbtp.domains.lifted import (
 from hbtp.domains.reachability import reachable_actions
 from hbtp.errors import GroundingError, InputError
 from hbtp.logic.atoms import Atom
+from hbtp.logic.negation import with_twin_effects
 from hbtp.logic.task import GroundAction, GroundTask, listing
 
 log = logging.getLogger(__name__)
@@ -95,6 +96,8 @@ _TICKS = 4096  # units of work between two deadline checks
 # Inside the grounder an atom is the plain tuple (predicate, arguments): it hashes and sorts as Atom
 # does, much faster; Atoms are made once per distinct atom when the task is assembled.
 _Key = tuple[str, tuple[str, ...]]
+#: The mark of a negative fluent precondition's key: ``("~on", args)`` asks for ``(on ...)`` to be false.
+NEGATED = "~"
 _Template = tuple[tuple[bool, str], ...]  # (is a variable, name) per argument
 _Check = Callable[[Binding], bool]
 _Fluent = Callable[[Binding], "bool | list[_Key]"]
@@ -416,7 +419,11 @@ class _Grounder:
         grounded.sort(key=lambda g: str(g[0]))
         if self.reachable_only:
             found = len(grounded)
-            kept = reachable_actions(self.initial, [(pre, add) for _, pre, add, _, _ in grounded], self._tick_atom)
+            # relaxed: a negative precondition is taken as reachable (deleting is never needed)
+            relaxed = [
+                (frozenset(k for k in pre if not k[0].startswith(NEGATED)), add) for _, pre, add, _, _ in grounded
+            ]
+            kept = reachable_actions(self.initial, relaxed, self._tick_atom)
             grounded = [grounded[index] for index in kept]
             log.debug("%s: %d of %d ground actions are unreachable from s0", task_name, found - len(grounded), found)
         return self._assemble(task_name, grounded)
@@ -426,37 +433,49 @@ class _Grounder:
         self.tick(64)
 
     def _assemble(self, task_name: str, grounded: list[_Grounded]) -> GroundTask:
-        """The task of the ``grounded`` actions: their atoms and s0's, sorted, and the actions over them."""
+        """The task of the ``grounded`` actions: their atoms and s0's, sorted, and the actions over
+        them; a negative precondition ``(not (p ...))`` becomes the twin ``~p`` of
+        :mod:`hbtp.logic.negation`, appended after the atoms and kept exact by the actions."""
         self.check_deadline()
         all_atoms: set[_Key] = set(self.initial)
+        negated: set[_Key] = set()
         for _, pre, add, delete, _ in grounded:
-            all_atoms.update(pre, add, delete)
+            for key in pre:
+                if key[0].startswith(NEGATED):
+                    negated.add((key[0][len(NEGATED) :], key[1]))
+                else:
+                    all_atoms.add(key)
+            all_atoms.update(add, delete)
+        all_atoms |= negated
         keys = sorted(all_atoms)  # the order of Atom (predicate, then arguments)
         ids = {key: i for i, key in enumerate(keys)}
-        get = ids.__getitem__
+        twins = {(NEGATED + p, args): len(keys) + n for n, (p, args) in enumerate(sorted(negated))}
+        twin_of = {ids[(p[len(NEGATED) :], args)]: twin for (p, args), twin in twins.items()}
+        get = {**ids, **twins}.__getitem__
         actions: list[GroundAction] = []
         for index, (signature, pre, add, delete, cost) in enumerate(grounded):
             self.tick()
-            actions.append(
-                GroundAction(
-                    index,
-                    signature,
-                    frozenset(map(get, pre)),
-                    frozenset(map(get, add)),
-                    frozenset(map(get, delete)),
-                    cost,
-                )
-            )
-        log.debug("grounded %s: %d actions, %d atoms", task_name, len(actions), len(keys))
+            action = GroundAction(
+                index, signature, frozenset(map(get, pre)), frozenset(map(ids.__getitem__, add)),
+                frozenset(map(ids.__getitem__, delete)), cost,
+            )  # fmt: skip
+            actions.append(with_twin_effects(action, twin_of) if twin_of else action)
+        log.debug("grounded %s: %d actions, %d atoms", task_name, len(actions), len(keys) + len(twins))
+        initial = {ids[a] for a in self.initial}
+        initial |= {twin for atom, twin in twin_of.items() if atom not in initial}
         return GroundTask(
             name=task_name,
-            atoms=tuple(Atom(predicate, args) for predicate, args in keys),
+            atoms=(
+                *(Atom(predicate, args) for predicate, args in keys),
+                *(Atom(p, args, True) for p, args in sorted(negated)),
+            ),
             actions=tuple(actions),
-            initial_state=frozenset(ids[a] for a in self.initial),
+            initial_state=frozenset(initial),
             objects=tuple(o.name for o in self.problem.objects),
             constants=tuple(c.name for c in self.domain.constants),
             predicates={p: len(args) for p, args in self.domain.predicates.items() if p in self.fluent},
             static_facts=frozenset(Atom(p, args) for p, args in self.static_facts),
+            static_predicates={p: len(args) for p, args in self.domain.predicates.items() if p not in self.fluent},
         )
 
     def _ground_schema(self, schema: ActionSchema) -> Iterator[_Grounded]:
@@ -563,6 +582,10 @@ class _Grounder:
         if isinstance(formula, AtomFormula) and formula.predicate in self.fluent:
             predicate, args, intern = formula.predicate, _getter(formula.terms), self.interned.setdefault
             return lambda binding: [intern(key := (predicate, args(binding)), key)]
+        operand = formula.operand if isinstance(formula, Not) else None
+        if isinstance(operand, AtomFormula) and operand.predicate in self.fluent:
+            negated, args = NEGATED + operand.predicate, _getter(operand.terms)
+            return lambda binding: [(negated, args(binding))]
         if isinstance(formula, Imply) and self._is_static(formula.antecedent):
             test = self._static_test(formula.antecedent)
             rest = self._compile_fluent(formula.consequent, schema)
@@ -814,7 +837,9 @@ class _Grounder:
             inner = self._simplify(formula.operand, binding, schema)
             if isinstance(inner, bool):
                 return not inner
-            raise self._not_strips(schema, formula.line, "a negated fluent condition")
+            if len(inner) == 1 and not inner[0][0].startswith(NEGATED):
+                return [(NEGATED + inner[0][0], inner[0][1])]
+            raise self._not_strips(schema, formula.line, "a negated conjunction of fluent conditions")
         if isinstance(formula, And):
             atoms: list[_Key] = []
             for part in formula.parts:

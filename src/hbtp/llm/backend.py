@@ -54,6 +54,8 @@ class Request:
     time_limit: float | None = None
     #: The reply's grammar and JSON schema (constrained decoding), or ``None``: free text.
     constraint: Constraint | None = None
+    #: The instruction a goal is asked for (:mod:`hbtp.llm.goal_prompt`), for the instruction oracle.
+    instruction: str = ""
 
     def key(self) -> str:
         """A stable hash of what the model is asked (for record/replay).

@@ -72,6 +72,7 @@ class Constraint:
 
     gbnf: str
     schema_json: str
+    name: str = "hints"  # the schema's name in ``response_format``
 
     @property
     def schema(self) -> dict[str, Any]:
@@ -99,7 +100,7 @@ def constraint_of(source: GroundTask | ActionNames, bounds: Bounds = Bounds()) -
     return Constraint(root + rules, json.dumps(schema, sort_keys=True))
 
 
-def _literal(text: str) -> str:
+def gbnf_literal(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
 
 
@@ -107,7 +108,7 @@ def _bounded(item: str, bound: int) -> str:
     return f'{item} (", " {item}){{0,{bound - 1}}}'
 
 
-class _Rules:
+class NameRules:
     """GBNF rules and the equivalent regular expressions, shared by the sets of suffixes they match."""
 
     def __init__(self, categories: Mapping[str, Iterable[str]]) -> None:
@@ -122,7 +123,7 @@ class _Rules:
         if values not in self.by_values:
             category = self.names.get(values)
             name = "c-" + re.sub(r"[^a-z0-9]+", "-", category) if category else f"o{len(self.by_values)}"
-            self.rules[name] = " | ".join(_literal(v) for v in sorted(values))
+            self.rules[name] = " | ".join(gbnf_literal(v) for v in sorted(values))
             self.by_values[values] = name
         return self.by_values[values]
 
@@ -152,14 +153,14 @@ class _Rules:
 
 def _names(task: ActionNames) -> tuple[str, str]:
     """The GBNF rules of ``action``, ``predicate`` and ``object``, and the regex of an action name."""
-    rules = _Rules(task.categories)
+    rules = NameRules(task.categories)
     objects_of: dict[str, set[tuple[str, ...]]] = {}
     for action in task.actions:
         objects_of.setdefault(action.predicate, set()).add(action.args)
     grammar, patterns = [], []
     for predicate in task.action_predicates:
         tail, tail_regex = rules.suffixes(frozenset(objects_of[predicate]))
-        grammar.append(_literal(predicate) + ("" if tail == '""' else f" {tail}"))
+        grammar.append(gbnf_literal(predicate) + ("" if tail == '""' else f" {tail}"))
         patterns.append(re.escape(predicate) + tail_regex)
     lines = [
         "action ::= " + " | ".join(f"( {g} )" for g in grammar),
@@ -191,7 +192,10 @@ def _schema(task: ActionNames, action_pattern: str, bounds: Bounds) -> dict[str,
 
 def response_format(constraint: Constraint) -> dict[str, Any]:
     """The OpenAI ``response_format`` asking for :attr:`Constraint.schema`."""
-    return {"type": "json_schema", "json_schema": {"name": "hints", "strict": True, "schema": constraint.schema}}
+    return {
+        "type": "json_schema",
+        "json_schema": {"name": constraint.name, "strict": True, "schema": constraint.schema},
+    }
 
 
 def reply_from_json(text: str) -> str | None:

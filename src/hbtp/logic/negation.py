@@ -34,12 +34,14 @@ def _compiled(task: GroundTask, missing: tuple[int, ...]) -> GroundTask:
     first = len(task.atoms)
     twin = {atom: first + offset for offset, atom in enumerate(missing)}
     atoms = (*task.atoms, *(task.atoms[atom].negate() for atom in missing))
-    actions = tuple(_with_twins(action, twin) for action in task.actions)
+    actions = tuple(with_twin_effects(action, twin) for action in task.actions)
     initial = task.initial_state | {twin[atom] for atom in missing if atom not in task.initial_state}
     return dataclasses.replace(task, atoms=atoms, actions=actions, initial_state=frozenset(initial))
 
 
-def _with_twins(action: GroundAction, twin: dict[int, int]) -> GroundAction:
+def with_twin_effects(action: GroundAction, twin: dict[int, int]) -> GroundAction:
+    """``action`` keeping the twins exact: it deletes ``twin[p]`` when it adds ``p`` and adds it
+    when it deletes ``p`` without adding it (``action`` itself when it touches no twinned atom)."""
     made_true = {twin[atom] for atom in action.delete - action.add if atom in twin}
     made_false = {twin[atom] for atom in action.add if atom in twin}
     if not made_true and not made_false:
@@ -47,4 +49,4 @@ def _with_twins(action: GroundAction, twin: dict[int, int]) -> GroundAction:
     return dataclasses.replace(action, add=action.add | made_true, delete=action.delete | made_false)
 
 
-__all__ = ["with_negations"]
+__all__ = ["with_negations", "with_twin_effects"]

@@ -149,6 +149,8 @@ class GroundTask:
     constants: tuple[str, ...] = ()
     predicates: Mapping[str, int] = field(default_factory=dict)
     static_facts: frozenset[Atom] = frozenset()
+    #: The domain's predicates that no action changes, with their arities (facts of them or not).
+    static_predicates: Mapping[str, int] = field(default_factory=dict)
 
     # ----------------------------------------------------------------- lookups
     @cached_property
@@ -180,7 +182,7 @@ class GroundTask:
     @cached_property
     def static_arities(self) -> dict[str, int]:
         """The arity of each static (compiled-away) predicate."""
-        return {fact.predicate: len(fact.args) for fact in self.static_facts}
+        return {**self.static_predicates, **{fact.predicate: len(fact.args) for fact in self.static_facts}}
 
     @cached_property
     def categories(self) -> dict[str, tuple[str, ...]]:
@@ -369,6 +371,8 @@ class GroundTask:
                 contradictory.append(term)
                 continue
             unreachable.extend(a for a in missing if a not in unreachable)
+            if any(a.positive not in self.atom_ids for a in missing):
+                continue  # a literal that is no atom of the task: the term can hold in no state
             disjuncts.append(ids)
             if not missing:
                 live.append(ids)
@@ -385,8 +389,10 @@ class GroundTask:
         missing: list[Atom] = []
         for atom in term:
             self.check_literal(atom)
-            if atom.predicate not in self.predicates:
-                raise InputError(f"{atom} is a static fact of the domain, not a goal literal")
+            if atom.predicate not in self.predicates:  # static: true or false in every state
+                if (atom.positive in self.static_facts) == atom.negated:
+                    missing.append(atom)
+                continue
             atom_id = self.atom_ids.get(atom.positive)
             if not atom.negated:
                 if atom_id is None or (atom_id not in self.initial_state and not self.achievers[atom_id]):

@@ -12,8 +12,9 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 
+from hbtp.datasets.instructions import load_instructions
 from hbtp.domains.scenarios import Scenario
-from hbtp.errors import BackendError, HbtpError
+from hbtp.errors import BackendError, HbtpError, InputError
 from hbtp.llm.backend import PromptStyle, Reply, Request
 from hbtp.llm.parse import hints_reply
 from hbtp.planning.hints import Hints, PathNoise, seeded_random
@@ -84,3 +85,31 @@ class NoisyOracleBackend(OracleBackend):
 
     def path(self, request: Request) -> Sequence[int]:
         return self.noisy_path(request.goal, request.round)
+
+
+class InstructionOracle:
+    """Answers an instruction of the shipped instruction dataset with the goal recorded for it
+    (``--llm oracle`` with ``--instruction``: for tests and for the benchmark's upper bound)."""
+
+    name = "oracle"
+    prompt_style = PromptStyle.CHAT
+
+    def __init__(self, scenario: Scenario) -> None:
+        try:
+            records = load_instructions(scenario.name)
+        except InputError:
+            records = ()
+        self.goals = {_normal(text): r.goal for r in records for text in r.instructions}
+
+    def complete(self, request: Request) -> Reply:
+        goal = self.goals.get(_normal(request.instruction))
+        if goal is None:
+            raise BackendError("the instruction oracle knows only the instructions of the shipped dataset")
+        return Reply(goal)
+
+    def close(self) -> None:
+        return None
+
+
+def _normal(text: str) -> str:
+    return " ".join(text.lower().split())

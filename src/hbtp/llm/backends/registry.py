@@ -10,7 +10,7 @@ from pathlib import Path
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError
 from hbtp.llm.backend import Backend
-from hbtp.llm.backends.oracle import NoisyOracleBackend, OracleBackend
+from hbtp.llm.backends.oracle import InstructionOracle, NoisyOracleBackend, OracleBackend
 from hbtp.llm.backends.replay import RecordingBackend, ReplayBackend
 
 BACKENDS = ("local", "openai", "oracle", "noisy-oracle", "replay:FILE")
@@ -85,3 +85,16 @@ def make_backend(spec: str, scenario: Scenario, options: BackendOptions = Backen
     if options.record:
         backend = RecordingBackend(backend, options.record)
     return backend
+
+
+def make_goal_backend(spec: str, scenario: Scenario, options: BackendOptions = BackendOptions()) -> Backend:
+    """The backend that turns instructions into goals: ``oracle`` answers the instruction dataset's
+    recorded goal; a model backend (``local``, ``openai``, ``replay:FILE``) as :func:`make_backend`."""
+    if spec == "noisy-oracle" or auto_backend(spec) is not None:
+        raise InputError(
+            f"--llm {spec} answers plans, not goals; for --instruction choose local, openai, oracle or replay:FILE"
+        )
+    if spec != "oracle":
+        return make_backend(spec, scenario, options)
+    backend: Backend = InstructionOracle(scenario)
+    return RecordingBackend(backend, options.record) if options.record else backend

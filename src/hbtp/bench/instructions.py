@@ -1,0 +1,217 @@
+"""``hbtp bench instructions``: how well an LLM turns the instruction dataset into goals, and whether
+the trees planned for them do what was asked.
+
+For every record of the shipped instruction dataset (:mod:`hbtp.datasets.instructions`) and each of
+its phrasings, the goal is asked of the backend (:func:`hbtp.pipeline.instruct.goal_from_instruction`)
+with the demonstrations drawn from the *other* records of the scenario (leave one record out: none of
+the record's phrasings is shown). A row records:
+
+- ``exact``: the produced goal has the same disjuncts as the intended one (each a set of literals);
+- ``equivalent``: the same after replacing ``~p`` by ``q`` where the proved mutexes make exactly one
+  of ``p`` and ``q`` hold in every reachable state (``~IsOpen_fridge`` and ``IsClose_fridge``);
+- ``well_formed``, ``rejected``: a goal was produced (every proposal refused: ``rejected``, with the
+  reasons in ``message``);
+- ``rounds`` and ``llm_s``: answers asked for and the model's time;
+- ``reached``: the full tree OBTEA plans for the produced goal (landmark heuristic), run from s0,
+  ends in a state where the *intended* goal holds (the end-to-end success).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from hbtp.bench.results import ResultsFile, mean, median, write_json
+from hbtp.bt import full_tree
+from hbtp.bt.disturb import exactly_one_groups
+from hbtp.bt.simulate import simulate
+from hbtp.datasets.instructions import InstructionRecord, load_instructions
+from hbtp.domains import Scenario, load_scenario
+from hbtp.errors import HbtpError
+from hbtp.llm.backend import Backend
+from hbtp.logic.atoms import Atom
+from hbtp.logic.goals import parse_goal
+from hbtp.logic.task import GroundTask
+from hbtp.pipeline.instruct import InstructOptions, goal_from_instruction, instruction_pool
+from hbtp.planning import Limits, plan
+
+log = logging.getLogger(__name__)
+
+KEY = ("scenario", "id", "phrasing")
+Normal = frozenset[frozenset[str]]
+
+
+@dataclass(frozen=True)
+class InstructionsBench:
+    """What to run: scenarios, records per scenario (``None``: all), phrasings per record."""
+
+    scenarios: tuple[str, ...]
+    backend_name: str
+    limit: int | None = None
+    phrasings: int = 2
+    rounds: int = 3
+    plan_time_limit: float = 30.0
+
+
+def kind_of(record: InstructionRecord) -> str:
+    """``test-set`` for a Table II goal, else ``negative``, ``disjunctive`` or ``written``."""
+    if record.task is not None:
+        return "test-set"
+    terms = parse_goal(record.goal)
+    if any(atom.negated for term in terms for atom in term):
+        return "negative"
+    return "disjunctive" if len(terms) > 1 else "written"
+
+
+def normal_form(scenario: Scenario, terms: Sequence[Sequence[Atom]], mutexes: bool) -> Normal:
+    """The goal as a set of disjuncts of literal names; with ``mutexes``, ``~p`` written as the
+    ``q`` that exactly-one mutex groups of two make equivalent."""
+    task = scenario.task
+    twin = _complements(scenario) if mutexes else {}
+    normal: set[frozenset[str]] = set()
+    for term in terms:
+        literals = set()
+        for atom in term:
+            spelled = task.spelled(atom)
+            literals.add(twin.get(spelled, spelled.underscored))
+        normal.add(frozenset(literals))
+    return frozenset(normal)
+
+
+def _complements(scenario: Scenario) -> dict[Atom, str]:
+    """``~p`` -> ``q`` for every exactly-one group ``{p, q}`` of the proved mutexes."""
+    task = scenario.task
+    table: dict[Atom, str] = {}
+    for group in exactly_one_groups(task, scenario.mutexes.proved_only()):
+        if len(group) == 2:
+            first, second = (task.atoms[i] for i in sorted(group))
+            table[first.negate()] = second.underscored
+            table[second.negate()] = first.underscored
+    return table
+
+
+def holds_by_name(task: GroundTask, terms: Sequence[Sequence[Atom]], state: frozenset[int]) -> bool:
+    """Whether the goal ``terms`` holds in ``state`` of ``task``, read by names (``~p``: ``p`` absent)."""
+    present = {task.atoms[i] for i in state if not task.atoms[i].negated}
+    return any(all((task.spelled(a).positive in present) != a.negated for a in term) for term in terms)
+
+
+def run_row(
+    scenario: Scenario, record: InstructionRecord, phrasing: int, backend: Backend, bench: InstructionsBench
+) -> dict[str, Any]:
+    """One instruction: its goal, compared with the intended one, and the planned tree's outcome."""
+    text = record.instructions[phrasing]
+    pool = instruction_pool(scenario, frozenset({record.id}))
+    row: dict[str, Any] = {"scenario": scenario.name, "id": record.id, "phrasing": phrasing, "kind": kind_of(record)}
+    row.update(instruction=text, intended=record.goal)
+    try:
+        choice = goal_from_instruction(scenario, text, backend, pool, InstructOptions(rounds=bench.rounds))
+    except HbtpError as error:
+        return {**row, "produced": None, "well_formed": False, "rejected": True, "exact": False,
+                "equivalent": False, "rounds": 0, "llm_s": 0.0, "reached": False, "message": str(error)}  # fmt: skip
+    intended = parse_goal(record.goal)
+    row.update(produced=choice.goal, rounds=len(choice.attempts), llm_s=round(choice.llm_seconds, 6))
+    row.update(well_formed=choice.goal is not None, rejected=choice.goal is None, message=choice.message)
+    if choice.goal is None:
+        return {**row, "exact": False, "equivalent": False, "reached": False}
+    produced = parse_goal(choice.goal)
+    row["exact"] = normal_form(scenario, produced, False) == normal_form(scenario, intended, False)
+    row["equivalent"] = normal_form(scenario, produced, True) == normal_form(scenario, intended, True)
+    row["reached"] = _reached(scenario, choice.goal, intended, bench.plan_time_limit)
+    return row
+
+
+def _reached(scenario: Scenario, produced: str, intended: Sequence[Sequence[Atom]], seconds: float) -> bool:
+    extended, goal = scenario.resolve_goal(produced)
+    result = plan(extended.task, goal, "obtea", mutexes=extended.mutexes, heuristic="lm", limits=Limits(time_s=seconds))
+    if not result.solved:
+        return False
+    run = simulate(full_tree(result.expansions), extended.task)
+    return run.succeeded and holds_by_name(extended.task, intended, run.final_state)
+
+
+def run_instructions(bench: InstructionsBench, make: Any, out: Path) -> dict[str, Any]:
+    """Run the benchmark (rows already in ``out/results.jsonl`` are kept) and write the summary."""
+    results = ResultsFile(out / "results.jsonl", KEY)
+    keys: list[tuple[Any, ...]] = []
+    for name in bench.scenarios:
+        scenario = load_scenario(name)
+        backend: Backend | None = None
+        try:
+            for record in load_instructions(name)[: bench.limit]:
+                for phrasing in range(min(bench.phrasings, len(record.instructions))):
+                    key = (name, record.id, phrasing)
+                    keys.append(key)
+                    if key in results:
+                        continue
+                    backend = backend or make(scenario)
+                    started = time.perf_counter()
+                    results.append(
+                        {
+                            **run_row(scenario, record, phrasing, backend, bench),
+                            "seconds": round(time.perf_counter() - started, 6),
+                        }
+                    )
+        finally:
+            if backend is not None:
+                backend.close()
+    rows = list(results.ordered(keys))
+    summary = {"backend": bench.backend_name, "scenarios": summarise(rows)}
+    write_json(out / "summary.json", summary)
+    (out / "report.md").write_text(report(summary), encoding="utf-8")
+    return summary
+
+
+def summarise(rows: Sequence[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Per scenario and per kind: the shares of exact, equivalent, well-formed and reached rows."""
+    table: dict[str, dict[str, Any]] = {}
+    for name in dict.fromkeys(r["scenario"] for r in rows):
+        mine = [r for r in rows if r["scenario"] == name]
+        table[name] = {"all": _figures(mine)}
+        for kind in ("test-set", "disjunctive", "negative", "written"):
+            chosen = [r for r in mine if r["kind"] == kind]
+            if chosen:
+                table[name][kind] = _figures(chosen)
+    return table
+
+
+def _figures(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    def share(field: str) -> float:
+        return round(100 * sum(bool(r[field]) for r in rows) / len(rows), 1)
+
+    return {
+        "instructions": len(rows),
+        "exact_pct": share("exact"),
+        "equivalent_pct": share("equivalent"),
+        "well_formed_pct": share("well_formed"),
+        "rejected_pct": share("rejected"),
+        "reached_pct": share("reached"),
+        "mean_rounds": mean([r["rounds"] for r in rows]),
+        "median_llm_s": median([r["llm_s"] for r in rows]),
+    }
+
+
+def report(summary: dict[str, Any]) -> str:
+    """The summary as a Markdown table."""
+    lines = [
+        f"# Instructions to goals: {summary['backend']}",
+        "",
+        "| scenario | kind | instructions | exact | equivalent | well-formed | rejected | reached | rounds "
+        "| median LLM s |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for name, kinds in summary["scenarios"].items():
+        for kind, f in kinds.items():
+            lines.append(
+                f"| {name} | {kind} | {f['instructions']} | {f['exact_pct']}% | {f['equivalent_pct']}% | "
+                f"{f['well_formed_pct']}% | {f['rejected_pct']}% | {f['reached_pct']}% | {f['mean_rounds']} | "
+                f"{f['median_llm_s']} |"
+            )
+    return "\n".join(lines) + "\n"
+
+
+__all__ = ["InstructionsBench", "holds_by_name", "kind_of", "normal_form", "run_instructions", "run_row"]

@@ -1,0 +1,265 @@
+"""Instruction in, checked goal out: the model proposes a goal, hbtp checks it, feeds back, repeats.
+
+Each proposal is read in the goal syntax (:mod:`hbtp.logic.goals`) and checked against the scenario
+before any planning:
+
+* *refused*: not a goal (malformed, unknown names), a contradiction (``IsOpen_fridge &
+  ~IsOpen_fridge``, or literals the domain's proved mutexes forbid together: ``IsOpen_fridge &
+  IsClose_fridge``), or literals no action can make true (these are left out of the next grammar);
+* *doubtful*: the goal already holds in s0 (the robot would do nothing).
+
+A refused or doubtful goal goes back to the model with the reason (the blacklist of LLM-OBTEA) for
+at most ``rounds`` more answers. The first goal with no objection is chosen; failing that, the first
+doubtful one; failing that, nothing, and the reasons are the error. An instruction that names no
+object of the domain and shares no word with a known instruction is refused before the model is
+asked (a model under a grammar always answers *some* goal).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from hbtp.datasets.instructions import load_instructions
+from hbtp.domains.scenarios import Scenario
+from hbtp.errors import InputError
+from hbtp.llm.backend import Backend, PromptStyle, Request
+from hbtp.llm.goal_prompt import (
+    STOPWORDS,
+    Connectives,
+    Example,
+    Rejected,
+    content_words,
+    continuation_request,
+    goal_reply,
+    goal_request,
+    mentioned_objects,
+    named_atoms,
+    similar_examples,
+)
+from hbtp.logic.atoms import Atom
+from hbtp.logic.goals import format_goal, parse_goal
+
+log = logging.getLogger(__name__)
+
+#: Symbols that name no object when written in an instruction (the agent itself, plain words).
+NOT_OBJECTS = STOPWORDS | {"self", "nothing", "off", "robot"}
+
+
+@dataclass(frozen=True)
+class InstructOptions:
+    """How the goal of an instruction is asked for."""
+
+    rounds: int = 3  # feedback rounds after the first answer
+    examples: int = 8  # demonstrations in the prompt
+    constrain: bool = True  # constrained decoding (grammar / JSON schema)
+    seed: int = 0
+    time_limit: float | None = None  # seconds for all the asking
+    cover: bool = True  # extend a completion model's goal to the objects the instruction names
+
+
+@dataclass(frozen=True)
+class GoalAttempt:
+    """One answer of the model and what the checks said of it."""
+
+    round: int
+    reply: str
+    goal: str
+    objections: tuple[str, ...]
+    doubtful: bool  # only objection: the goal holds in s0
+    seconds: float
+
+    @property
+    def accepted(self) -> bool:
+        return not self.objections
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "round": self.round,
+            "reply": self.reply,
+            "goal": self.goal,
+            "objections": list(self.objections),
+            "seconds": round(self.seconds, 6),
+        }
+
+
+@dataclass(frozen=True)
+class GoalChoice:
+    """The goal chosen for an instruction (``None`` when every proposal was refused), with the attempts."""
+
+    instruction: str
+    goal: str | None
+    attempts: tuple[GoalAttempt, ...] = ()
+    llm_seconds: float = 0.0
+    message: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "instruction": self.instruction,
+            "goal": self.goal,
+            "rounds": len(self.attempts),
+            "llm_s": round(self.llm_seconds, 6),
+            "message": self.message,
+            "attempts": [a.to_dict() for a in self.attempts],
+        }
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The checks of one proposed goal."""
+
+    objections: tuple[str, ...] = ()
+    doubtful: bool = False
+    never: tuple[Atom, ...] = field(default=())
+
+
+def check_goal(scenario: Scenario, text: str) -> Verdict:
+    """The objections to ``text`` as the goal of ``scenario`` (see the module docstring)."""
+    try:
+        extended, goal = scenario.resolve_goal(text)
+    except InputError as error:
+        return Verdict((f"not a goal: {error}",))
+    if goal.unsolvable is not None:
+        objections = [f"{format_goal((term,))} asks for a literal and its negation" for term in goal.contradictory]
+        if goal.unreachable:
+            objections.append("never true: " + ", ".join(a.underscored for a in goal.unreachable))
+        contradicting = tuple(a for term in goal.contradictory for a in term if a.negated and a.positive in term)
+        return Verdict(tuple(objections), never=(*goal.unreachable, *contradicting))
+    proved = extended.mutexes.proved_only()
+    clashes = [proved.conflict(d) for d in goal.reachable]
+    if all(clash is not None for clash in clashes):
+        first = next(clash for clash in clashes if clash is not None)
+        names = " and ".join(a.underscored for a in (extended.task.atoms[i] for i in sorted(first)))
+        return Verdict((f"{names} cannot hold together",))
+    if goal.holds(extended.task.initial_state):
+        return Verdict(("it already holds at the start",), doubtful=True)
+    return Verdict()
+
+
+def instruction_pool(scenario: Scenario, exclude: frozenset[str] = frozenset()) -> list[Example]:
+    """The demonstrations of a shipped scenario: each phrasing of each record of its instruction
+    dataset, leaving out the records whose ids are in ``exclude``; none for other scenarios."""
+    try:
+        records = load_instructions(scenario.name)
+    except InputError:
+        return []
+    return [Example(text, r.goal) for r in records if r.id not in exclude for text in r.instructions]
+
+
+def goal_from_instruction(
+    scenario: Scenario,
+    instruction: str,
+    backend: Backend,
+    pool: Sequence[Example] = (),
+    options: InstructOptions = InstructOptions(),
+) -> GoalChoice:
+    """Ask ``backend`` for the goal of ``instruction`` in ``scenario`` (see the module docstring).
+
+    Raises :class:`InputError` for an empty instruction or one about nothing the domain knows, and
+    :class:`BackendError` when the model cannot be asked at all.
+    """
+    text = " ".join(instruction.split())
+    if not text:
+        raise InputError("empty instruction")
+    task = scenario.task
+    examples = similar_examples(text, pool, options.examples)
+    if not _relevant(scenario, text, pool):
+        raise InputError(f"the instruction {text[:80]!r} names no object of {scenario.name!r} and is like no known one")
+    deadline = math.inf if options.time_limit is None else time.perf_counter() + options.time_limit
+    attempts: list[GoalAttempt] = []
+    rejected: list[Rejected] = []
+    spent = 0.0
+    for number in range(options.rounds + 1):
+        left = deadline - time.perf_counter()
+        if left <= 0:
+            break
+        request = goal_request(
+            task, text, examples, rejected, constrain=options.constrain, round_number=number, seed=options.seed
+        )
+        request = _limited(request, left)
+        reply = backend.complete(request)
+        spent += reply.seconds
+        proposed = goal_reply(reply.text)
+        verdict = check_goal(scenario, proposed) if proposed else Verdict(("no goal in the reply",))
+        attempts.append(GoalAttempt(number, reply.text, proposed, verdict.objections, verdict.doubtful, reply.seconds))
+        log.info("instruction round %d: %r -> %s", number, proposed, "; ".join(verdict.objections) or "accepted")
+        if not verdict.objections:
+            break
+        rejected.append(Rejected(proposed or reply.text.strip()[:80], "; ".join(verdict.objections), verdict.never))
+    if options.cover and backend.prompt_style is PromptStyle.COMPLETION and attempts and attempts[-1].accepted:
+        spent += _cover(scenario, text, backend, request, attempts, deadline)
+    return _choose(text, attempts, spent)
+
+
+def _cover(
+    scenario: Scenario, text: str, backend: Backend, request: Request, attempts: list[GoalAttempt], deadline: float
+) -> float:
+    """Extend an accepted conjunction with a literal for each object the instruction names and the
+    goal leaves out (a small model stops after the first literal); a literal that draws an
+    objection is left out. Returns the model's time."""
+    goal = attempts[-1].goal
+    terms = parse_goal(goal)
+    if len(terms) != 1 or not Connectives.licensed_by(text).conjunctions:
+        return 0.0
+    named, atoms = named_atoms(scenario.task, text)
+    spent = 0.0
+    for missing in sorted(named):
+        used = {arg for atom in parse_goal(goal)[0] for arg in atom.args}
+        offered = [a for a in atoms if missing in a.args and a not in parse_goal(goal)[0]]
+        if missing in used or not offered or time.perf_counter() >= deadline:
+            continue
+        reply = backend.complete(
+            _limited(
+                continuation_request(request, goal, offered, scenario.task.categories), deadline - time.perf_counter()
+            )
+        )
+        spent += reply.seconds
+        literal = goal_reply(reply.text)
+        longer = f"{goal} & {literal}" if literal else goal
+        verdict = check_goal(scenario, longer) if literal else Verdict(("no literal in the reply",))
+        attempts.append(
+            GoalAttempt(len(attempts), reply.text, longer, verdict.objections, verdict.doubtful, reply.seconds)
+        )
+        if not verdict.objections:
+            goal = longer
+    return spent
+
+
+def _limited(request: Request, seconds: float) -> Request:
+    return replace(request, time_limit=seconds if math.isfinite(seconds) else None)
+
+
+def _relevant(scenario: Scenario, text: str, pool: Sequence[Example]) -> bool:
+    """Whether the instruction names an object of the scenario or shares a content word with a known one."""
+    if any(name.lower() not in NOT_OBJECTS for name in mentioned_objects(scenario.task, [text])):
+        return True
+    asked = content_words(text)
+    return any(asked & content_words(example.instruction) for example in pool)
+
+
+def _choose(text: str, attempts: Sequence[GoalAttempt], spent: float) -> GoalChoice:
+    accepted = [a for a in attempts if a.accepted]
+    doubtful = [a for a in attempts if a.doubtful]
+    if accepted or doubtful:
+        chosen = accepted[-1] if accepted else doubtful[0]  # the last accepted: the most complete
+        goal = format_goal(parse_goal(chosen.goal))
+        return GoalChoice(text, goal, tuple(attempts), spent)
+    reasons = "; ".join(dict.fromkeys(o for a in attempts for o in a.objections)) or "the model gave no answer in time"
+    return GoalChoice(
+        text, None, tuple(attempts), spent, f"no acceptable goal after {len(attempts)} answer(s): {reasons}"
+    )
+
+
+__all__ = [
+    "GoalAttempt",
+    "GoalChoice",
+    "InstructOptions",
+    "Verdict",
+    "check_goal",
+    "goal_from_instruction",
+    "instruction_pool",
+]
