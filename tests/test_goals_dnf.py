@@ -251,3 +251,13 @@ def test_obtea_over_or_and_not_matches_fast_downward(name: str) -> None:
         assert result.cost == fd.cost, (record.id, record.goal)
         checked += 1
     assert checked >= 10
+
+
+def test_an_unknown_object_lists_the_valid_ones(kitchen: GroundTask) -> None:
+    virtualhome = load_scenario("virtualhome").task
+    with pytest.raises(
+        InputError, match=r"unknown object 'unicorn' in IsIn\(milk,unicorn\) \(IsIn takes at argument 2: cabinet, "
+    ):
+        virtualhome.resolve_goal("IsIn_milk_unicorn")
+    with pytest.raises(InputError, match=r"did you mean 'fridge'"):
+        virtualhome.resolve_goal("IsOpen_fride")

@@ -141,17 +141,26 @@ def similar_examples(instruction: str, pool: Sequence[Example], count: int) -> l
 
 
 def object_positions(task: GroundTask, text: str) -> dict[str, int]:
-    """The task's symbols that ``text`` names, with the word where each is first named: a word or
-    run of up to three words that spells the symbol (case and spaces aside, a plural ``s`` aside)."""
+    """The task's symbols that ``text`` names, with the word where each is first named: a run of up
+    to three words that spells the symbol (case and spaces aside, a plural ``s`` aside), the longest
+    run first ("kitchen cabinet" names ``kitchencabinet``, not ``cabinet``)."""
     spelled = {re.sub(r"[^a-z0-9]", "", s.lower()): s for s in task.symbols}
     found: dict[str, int] = {}
     tokens = words(text)
-    for start in range(len(tokens)):
-        for length in (1, 2, 3):
+    start = 0
+    while start < len(tokens):
+        for length in (3, 2, 1):
             joined = "".join(tokens[start : start + length])
-            for form in (joined, joined.removesuffix("s"), joined.removesuffix("es")):
-                if form in spelled:
-                    found.setdefault(spelled[form], start)
+            name = next(
+                (spelled[f] for f in (joined, joined.removesuffix("s"), joined.removesuffix("es")) if f in spelled),
+                None,
+            )
+            if name is not None and start + length <= len(tokens):
+                found.setdefault(name, start)
+                start += length
+                break
+        else:
+            start += 1
     return found
 
 

@@ -317,7 +317,7 @@ class GroundTask:
             raise UnknownSymbolError(f"{atom}: predicate {atom.predicate!r} takes {arity} argument(s)")
         unknown = [arg for arg in atom.args if arg not in self.symbols]
         if unknown:
-            hint = did_you_mean(unknown[0], self.symbols)
+            hint = did_you_mean(unknown[0], self.symbols) or self._valid_objects(atom, atom.args.index(unknown[0]))
             raise UnknownSymbolError(f"unknown object {unknown[0]!r} in {atom}{hint}")
 
     def goal_terms(self, goal: str | Goal | Iterable[Atom | str]) -> tuple[tuple[Atom, ...], ...]:
@@ -352,6 +352,17 @@ class GroundTask:
     def _negation_matters(self, atom_id: int) -> bool:
         """Whether ``~atom`` can be false in some reachable state (s0 holds the atom, or an action adds it)."""
         return atom_id in self.initial_state or bool(self.achievers[atom_id])
+
+    def _valid_objects(self, atom: Atom, position: int) -> str:
+        """`` (IsIn takes at argument 2: a, b, c)``: the objects the task's literals of ``atom``'s
+        predicate have at ``position`` (its category, in effect), or ''."""
+        values = sorted(
+            {a.args[position] for a in self.atoms if a.predicate == atom.predicate and len(a.args) > position}
+        )
+        if not values:
+            return ""
+        where = f" at argument {position + 1}" if len(atom.args) > 1 else ""
+        return f" ({atom.predicate} takes{where}: {listing(values)})"
 
     def resolve_goal(self, goal: str | Goal | Iterable[Atom | str]) -> Goal:
         """Resolve a goal (``IsIn_milk_fridge & ~IsOpen(fridge) | IsOn_milk_table``, a PDDL goal, a

@@ -10,9 +10,12 @@ before any planning:
 
 A refused or doubtful goal goes back to the model with the reason (the blacklist of LLM-OBTEA) for
 at most ``rounds`` more answers. The first goal with no objection is chosen; failing that, the first
-doubtful one; failing that, nothing, and the reasons are the error. An instruction that names no
-object of the domain and shares no word with a known instruction is refused before the model is
-asked (a model under a grammar always answers *some* goal).
+doubtful one; failing that, nothing, and the reasons are the error. A completion-style model's
+accepted conjunction is then extended with a literal for each object the instruction names and the
+goal leaves out (asked as a continuation of its own goal; a literal that draws an objection is
+dropped). An instruction that names no object of the domain and shares no word with a known
+instruction is refused before the model is asked (a model under a grammar always answers *some*
+goal).
 """
 
 from __future__ import annotations
