@@ -19,16 +19,21 @@ from __future__ import annotations
 
 import contextlib
 import importlib
+import logging
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from hbtp.bt.btcpp import tree_to_btcpp, used_node_ids
+from hbtp.bt.btlog import read_btlog
 from hbtp.bt.nodes import Node
 from hbtp.errors import HbtpError, InputError
 from hbtp.logic.execution import Disturbance, NodeStatus, Run
 from hbtp.logic.task import GroundTask, State
+
+log = logging.getLogger(__name__)
 
 __all__ = ["BtcppEngine", "Watch", "btcpp_binding"]
 
@@ -142,8 +147,36 @@ class Watch:
             yield
         finally:
             if logger is not None:
-                logger.flush()
+                # Not logger.flush(): in BT.CPP 4.8 it writes the file from this thread while the
+                # logger's writer thread does too (a race fixed upstream in BehaviorTree.CPP #1102)
+                # and can garble the log. The writer thread wakes every 10 ms: let it drain its
+                # queue, then the destructor stops it and closes the file.
+                time.sleep(LOG_DRAIN_S)
             del logger, publisher
+            if self.btlog is not None:
+                _await_whole_log(self.btlog)
+
+
+#: Seconds to wait for BT.CPP's log writer (a thread of its own) to finish the file.
+LOG_SETTLE_S = 2.0
+#: Seconds given to the log writer thread to write what is queued (it wakes every 10 ms).
+LOG_DRAIN_S = 0.05
+
+
+def _await_whole_log(path: Path) -> None:
+    """Wait until the log at ``path`` reads whole (every transition record complete), at most
+    :data:`LOG_SETTLE_S`: FileLogger2 writes from a thread of its own, and under load the file was
+    once read before that thread had finished it."""
+    deadline = time.monotonic() + LOG_SETTLE_S
+    while True:
+        try:
+            read_btlog(path)
+            return
+        except InputError as error:
+            if time.monotonic() >= deadline:
+                log.warning("%s", error)
+                return
+            time.sleep(0.01)
 
 
 def _status(bt: Any, status: Any) -> NodeStatus:
