@@ -31,7 +31,7 @@ from typing import Any, NoReturn
 from hbtp import __version__
 from hbtp.collector import collector_paused
 from hbtp.domains.mutex import Mutexes, MutexGroup
-from hbtp.logic.atoms import Atom
+from hbtp.logic.atoms import NEGATION, Atom
 from hbtp.logic.task import GroundAction, GroundTask
 
 log = logging.getLogger(__name__)
@@ -223,8 +223,8 @@ def encode(scenario: CachedScenario, name: str, key: str) -> bytes:
     def symbol(text: str) -> int:
         return symbols.setdefault(text, len(symbols))
 
-    def atom(value: Atom) -> list[int]:  # a negated twin's predicate is written with its "~"
-        return [symbol(("~" if value.negated else "") + value.predicate), *map(symbol, value.args)]
+    def atom(value: Atom) -> list[int]:  # a negated twin's predicate is written with its mark
+        return [symbol((NEGATION if value.negated else "") + value.predicate), *map(symbol, value.args)]
 
     def ids(values: Iterable[int]) -> list[int]:
         return sorted(values)
@@ -339,7 +339,7 @@ def _atoms(rows: object, symbols: Sequence[str], what: str, *, unique: bool = Fa
         _fail(f"{what} repeats an entry")
     name = symbols.__getitem__
     atoms = [Atom(name(row[0]), tuple(map(name, row[1:]))) for row in checked]
-    return [Atom(a.predicate[1:], a.args, True) if a.predicate.startswith("~") else a for a in atoms]
+    return [Atom(a.predicate[len(NEGATION) :], a.args, True) if a.predicate.startswith(NEGATION) else a for a in atoms]
 
 
 def decode(data: bytes, name: str, key: str) -> CachedScenario:

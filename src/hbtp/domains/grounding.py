@@ -58,7 +58,7 @@ from hbtp.domains.lifted import (
 )
 from hbtp.domains.reachability import reachable_actions
 from hbtp.errors import GroundingError, InputError
-from hbtp.logic.atoms import Atom
+from hbtp.logic.atoms import NEGATION, Atom
 from hbtp.logic.negation import with_twin_effects
 from hbtp.logic.task import GroundAction, GroundTask, listing
 
@@ -97,7 +97,7 @@ _TICKS = 4096  # units of work between two deadline checks
 # does, much faster; Atoms are made once per distinct atom when the task is assembled.
 _Key = tuple[str, tuple[str, ...]]
 #: The mark of a negative fluent precondition's key: ``("~on", args)`` asks for ``(on ...)`` to be false.
-NEGATED = "~"
+NEGATED = NEGATION
 _Template = tuple[tuple[bool, str], ...]  # (is a variable, name) per argument
 _Check = Callable[[Binding], bool]
 _Fluent = Callable[[Binding], "bool | list[_Key]"]

@@ -191,9 +191,9 @@ def offered_atoms(
     """The literals the grammar offers (see the module docstring), fluent and not ``banned``: those
     over the objects the instruction names (with the placeholders), else over the objects the
     demonstrations' goals name too, else every literal."""
-    placeholders = frozenset(c for c in task.constants if c.lower() in PLACEHOLDERS)
+    placeholders = _placeholders(task)
     excluded = set(banned)
-    fluent = [a for a in task.atoms if not a.negated and a.predicate in task.predicates and a not in excluded]
+    fluent = [a for a in _fluent_atoms(task) if a not in excluded]
     positions = object_positions(task, instruction)
     named = frozenset(positions) - placeholders
     demonstrated = mentioned_objects(task, [e.goal.replace("_", " ") for e in examples])
@@ -334,14 +334,19 @@ def goal_request(
 def named_atoms(task: GroundTask, instruction: str) -> tuple[frozenset[str], list[Atom]]:
     """The objects the instruction names (placeholders aside) and the fluent atoms over them and
     the placeholders."""
-    placeholders = frozenset(c for c in task.constants if c.lower() in PLACEHOLDERS)
+    placeholders = _placeholders(task)
     named = mentioned_objects(task, [instruction]) - placeholders
-    atoms = [
-        a
-        for a in task.atoms
-        if not a.negated and a.predicate in task.predicates and all(x in named or x in placeholders for x in a.args)
-    ]
-    return named, atoms
+    return named, [a for a in _fluent_atoms(task) if all(x in named or x in placeholders for x in a.args)]
+
+
+def _placeholders(task: GroundTask) -> frozenset[str]:
+    """The task's constants that stand for no object a person names (:data:`PLACEHOLDERS`)."""
+    return frozenset(c for c in task.constants if c.lower() in PLACEHOLDERS)
+
+
+def _fluent_atoms(task: GroundTask) -> list[Atom]:
+    """The task's positive atoms of fluent predicates: what a goal literal can name."""
+    return [a for a in task.atoms if not a.negated and a.predicate in task.predicates]
 
 
 def continuation_request(

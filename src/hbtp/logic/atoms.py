@@ -20,6 +20,8 @@ _NAME = r"[A-Za-z][A-Za-z0-9_\-]*"
 _PAREN_FORM = re.compile(rf"^\s*({_NAME})\s*\(\s*([^()]*)\)\s*$")
 _BARE_NAME = re.compile(rf"^\s*({_NAME})\s*$")
 _SHOWN = 80  # characters of an offending text quoted in an error message
+#: The mark of a negated literal, ``~IsOpen(fridge)`` (also in the scenario cache and the grounder's keys).
+NEGATION = "~"
 
 
 def _quoted(text: str) -> str:
@@ -42,12 +44,12 @@ class Atom:
     negated: bool = False
 
     def __str__(self) -> str:
-        return f"{'~' if self.negated else ''}{self.predicate}({','.join(self.args)})"
+        return f"{NEGATION if self.negated else ''}{self.predicate}({','.join(self.args)})"
 
     @property
     def underscored(self) -> str:
         """The datasets' spelling, ``IsIn_milk_fridge`` (``~IsIn_milk_fridge`` when negated)."""
-        return ("~" if self.negated else "") + "_".join((self.predicate, *self.args))
+        return (NEGATION if self.negated else "") + "_".join((self.predicate, *self.args))
 
     @property
     def positive(self) -> Atom:
@@ -66,8 +68,9 @@ def parse_atom(text: str) -> Atom:
     Raises :class:`InputError` on anything else.
     """
     stripped = text.strip()
-    if stripped.startswith("~"):
-        return parse_atom(stripped[1:]).negate() if not stripped[1:].lstrip().startswith("~") else _malformed(text)
+    if stripped.startswith(NEGATION):
+        positive = stripped[len(NEGATION) :]
+        return parse_atom(positive).negate() if not positive.lstrip().startswith(NEGATION) else _malformed(text)
     match = _PAREN_FORM.match(text)
     if match:
         inner = match.group(2).strip()

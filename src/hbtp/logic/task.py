@@ -376,7 +376,8 @@ class GroundTask:
         unreachable: list[Atom] = []
         contradictory: list[tuple[Atom, ...]] = []
         live: list[frozenset[int]] = []
-        for term in self.goal_terms(goal):
+        terms = self.goal_terms(goal)
+        for term in terms:
             ids, missing = self._term_ids(term)
             if ids is None:
                 contradictory.append(term)
@@ -391,7 +392,7 @@ class GroundTask:
             d for i, d in enumerate(disjuncts) if not any(o < d or (o == d and j < i) for j, o in enumerate(disjuncts))
         )
         roots = tuple(d for d in kept if d in live)
-        return Goal(self.goal_terms(goal), kept, tuple(unreachable), tuple(contradictory), roots)
+        return Goal(terms, kept, tuple(unreachable), tuple(contradictory), roots)
 
     def _term_ids(self, term: tuple[Atom, ...]) -> tuple[frozenset[int] | None, list[Atom]]:
         """The atom ids of one conjunction, and its literals that can never hold (``None`` ids when

@@ -211,8 +211,9 @@ def _cover(
     named, atoms = named_atoms(scenario.task, text)
     spent = 0.0
     for missing in sorted(named):
-        used = {arg for atom in parse_goal(goal)[0] for arg in atom.args}
-        offered = [a for a in atoms if missing in a.args and a not in parse_goal(goal)[0]]
+        literals = parse_goal(goal)[0]
+        used = {arg for atom in literals for arg in atom.args}
+        offered = [a for a in atoms if missing in a.args and a not in literals]
         if missing in used or not offered or time.perf_counter() >= deadline:
             continue
         reply = backend.complete(
