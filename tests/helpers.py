@@ -8,13 +8,15 @@ shares no code with the backward search under test.
 from __future__ import annotations
 
 import heapq
+import itertools
 import random
 import re
 import threading
 import xml.etree.ElementTree as ET
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Hashable, Iterable, Sequence
 from dataclasses import dataclass
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from typing import Any
 
 from hbtp.bt import Condition, Fallback, Node, NodeStatus, tick
 from hbtp.bt.verify import verify
@@ -106,6 +108,27 @@ def brute_force(
                     counter += 1
                     heapq.heappush(heap, (value, counter, successor))
     return None, ()
+
+
+def cheapest(
+    start: Hashable, holds: Callable[[Any], bool], successors: Callable[[Any], Iterable[tuple[int, Hashable]]]
+) -> int | None:
+    """Dijkstra over any states (an independent brute force for tests that build their own model):
+    the cheapest cost from ``start`` to a state where ``holds``, or ``None`` when none is reachable."""
+    best: dict[Hashable, int] = {start: 0}
+    heap: list[tuple[int, int, Any]] = [(0, 0, start)]
+    counter = itertools.count(1)
+    while heap:
+        cost, _, state = heapq.heappop(heap)
+        if cost > best[state]:
+            continue
+        if holds(state):
+            return cost
+        for step, successor in successors(state):
+            if cost + step < best.get(successor, cost + step + 1):
+                best[successor] = cost + step
+                heapq.heappush(heap, (cost + step, next(counter), successor))
+    return None
 
 
 def random_case(seed: int) -> RandomCase:

@@ -4,7 +4,6 @@ OBTEA and checked against the brute-force optimum; every tree verified and execu
 
 from __future__ import annotations
 
-import heapq
 import itertools
 import random
 from collections.abc import Callable
@@ -21,6 +20,7 @@ from hbtp.domains.mutex import infer_mutexes
 from hbtp.domains.pddl_reader import read_domain, read_problem
 from hbtp.domains.scenarios import ScenarioOptions, load_pddl_scenario
 from hbtp.planning import Status, plan
+from helpers import cheapest
 
 Ground = frozenset[tuple[str, ...]]  # a state: ground atoms as (predicate, *objects)
 
@@ -105,20 +105,7 @@ class RandomPddl:
         return found
 
     def optimum(self) -> int | None:
-        best = {self.initial: 0}
-        heap: list[tuple[int, int, Ground]] = [(0, 0, self.initial)]
-        counter = itertools.count(1)
-        while heap:
-            cost, _, state = heapq.heappop(heap)
-            if cost > best[state]:
-                continue
-            if self.holds(state):
-                return cost
-            for step, successor in self.successors(state):
-                if cost + step < best.get(successor, cost + step + 1):
-                    best[successor] = cost + step
-                    heapq.heappush(heap, (cost + step, next(counter), successor))
-        return None
+        return cheapest(self.initial, self.holds, self.successors)
 
 
 def _grounded(predicate: str, positions: tuple[int, ...], args: tuple[str, ...]) -> tuple[str, ...]:

@@ -18,6 +18,7 @@ from hbtp.domains.lifted import (
     CostEffect,
     DeleteEffect,
     Equals,
+    Exists,
     ForallEffect,
     Imply,
     Not,
@@ -135,16 +136,21 @@ DOMAIN_ERRORS = {
         "\n   :condition (at start (p)) :effect (at end (p))))",
         r"durative actions \(:durative-action\) are not supported",
     ),
-    "exists in a precondition": (
+    "exists binding no variable": (
         _action(
-            ":parameters (?x - item) :precondition (and (Exists ?x) @(exists (?p - place) (at ?x ?p)))"
-            " :effect (clean till)"
+            ":parameters (?x - item) :precondition (and (Exists ?x) @(exists () (at ?x till))) :effect (clean till)"
         ),
-        r"quantified conditions \(exists\)",
+        r"\(exists \.\.\.\) binds no variable",
     ),
-    "forall in a precondition": (
-        _action(":parameters (?x - item) :precondition @(forall (?p - place) (at ?x ?p)) :effect (clean till)"),
-        r"quantified conditions \(forall\)",
+    "forall with three parts": (
+        _action(
+            ":parameters (?x - item) :precondition @(forall (?p - place) (at ?x ?p) (clean ?p)) :effect (clean till)"
+        ),
+        r"\(forall \(\?vars\) condition\) takes two parts",
+    ),
+    "forall over an unknown type": (
+        _action(":parameters (?x - item) :precondition (forall (?p - @room) (at ?x ?p)) :effect (clean till)"),
+        r"unknown type 'room'",
     ),
     "numeric condition >": (
         _action(":parameters (?p - place) :precondition (and (clean ?p) @(> (dist ?p) 3)) :effect (clean ?p)"),
@@ -260,9 +266,9 @@ PROBLEM_ERRORS = {
     ),
     "numeric fact in Arabic-Indic digits": (PROBLEM.replace("(dist shelf) 4)", "(dist shelf) @\u0664)"), "not a whole"),
     "numeric fact of 400 digits": (PROBLEM.replace("(dist shelf) 4)", "(dist shelf) @" + "4" * 400 + ")"), "too large"),
-    "exists in goal": (
-        PROBLEM.replace("(and (at apple till))", "@(exists (?x - item) (at ?x till))"),
-        r"quantified conditions \(exists\)",
+    "exists in goal binding no variable": (
+        PROBLEM.replace("(and (at apple till))", "@(exists () (at apple till))"),
+        r"binds no variable",
     ),
 }
 
@@ -304,12 +310,9 @@ def test_predicate_named_exists_is_a_predicate_not_the_quantifier() -> None:
 
 
 def test_lower_case_exists_stays_the_quantifier_beside_a_predicate_named_exists() -> None:
-    text, line, column = _marked(
-        _action(":parameters () :precondition @(exists (?x - item) (Exists ?x)) :effect (clean till)")
-    )
-    with pytest.raises(PddlError, match="quantified") as info:
-        read_domain(text)
-    assert (info.value.line, info.value.column) == (line, column)
+    domain = read_domain(_action(":parameters () :precondition (exists (?x - item) (Exists ?x)) :effect (clean till)"))
+    action = domain.actions[-1]
+    assert action.precondition == Exists((TypedName("?x", ("item",)),), AtomFormula("Exists", ("?x",)))
 
 
 def test_robowaiter_exists_reads_as_a_predicate() -> None:

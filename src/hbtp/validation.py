@@ -61,6 +61,8 @@ INSTALL_HINT = "install the validate extra: pip install -e '.[validate]'"
 ENGINE = "fast-downward-opt"
 #: The search of unified-planning's ``fast-downward-opt``, used with the driver too.
 SEARCH = "astar(lmcut())"
+#: The search for files whose translation may have axioms (see :func:`lifted_fast_downward_cost`).
+BLIND_SEARCH = "astar(blind())"
 #: ``auto`` runs the driver for tasks with more grounded actions than this.
 AUTO_DRIVER_ACTIONS = 1000
 Engine = Literal["auto", "unified-planning", "driver"]
@@ -185,6 +187,28 @@ def fast_downward_cost(
     raise BackendError(f"Fast Downward failed ({run.status.value}): {run.message}")
 
 
+def lifted_fast_downward_cost(domain_file: Path, problem_file: Path, *, time_limit: float = 60.0) -> int | None:
+    """Fast Downward's optimal cost for the original PDDL files, read and grounded by its own
+    translator (an independent check of hbtp's reading and grounding), found by blind A*, which
+    also works with the axioms the translator makes of some negated quantifiers and disjunctive
+    goals (LM-cut does not); ``None`` when it proves the
+    goal unsolvable. Raises :class:`~hbtp.errors.BackendError` as :func:`fast_downward_cost` does,
+    and when Fast Downward reports no cost."""
+    _require_extra()
+    domain_text = Path(domain_file).read_text(encoding="utf-8")
+    problem_text = Path(problem_file).read_text(encoding="utf-8")
+    with tempfile.TemporaryDirectory(prefix="hbtp-fd-") as folder, contextlib.chdir(folder):
+        copies = Path(folder, "domain.pddl"), Path(folder, "problem.pddl")
+        copies[0].write_text(domain_text, encoding="utf-8")
+        copies[1].write_text(problem_text, encoding="utf-8")
+        outcome = _solve_with_driver(*copies, time_limit, BLIND_SEARCH)
+    if outcome.status is RunStatus.UNSOLVABLE:
+        return None
+    if outcome.status is not RunStatus.OPTIMAL or outcome.reported_cost is None:
+        raise BackendError(f"Fast Downward failed ({outcome.status.value}): {outcome.message or 'no cost reported'}")
+    return outcome.reported_cost
+
+
 def _replay(
     task: GroundTask,
     goal: Goal,
@@ -235,8 +259,9 @@ def _driver_script() -> Path:
     return Path(str(resources.files("up_fast_downward") / "downward" / "fast-downward.py"))
 
 
-def _solve_with_driver(domain_file: Path, problem_file: Path, time_limit: float) -> _Outcome:
-    """Run Fast Downward's driver (A* with LM-cut) on the files, in the current (temporary) directory."""
+def _solve_with_driver(domain_file: Path, problem_file: Path, time_limit: float, search: str = SEARCH) -> _Outcome:
+    """Run Fast Downward's driver (A* with LM-cut by default) on the files, in the current
+    (temporary) directory."""
     plan_file = domain_file.with_name("plan.txt")
     command = [
         sys.executable,
@@ -248,7 +273,7 @@ def _solve_with_driver(domain_file: Path, problem_file: Path, time_limit: float)
         str(domain_file),
         str(problem_file),
         "--search",
-        SEARCH,
+        search,
     ]
     process = subprocess.Popen(
         command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
@@ -478,6 +503,7 @@ __all__ = [
     "fast_downward_cost",
     "has_declared_mutexes",
     "iter_comparisons",
+    "lifted_fast_downward_cost",
     "run_fast_downward",
     "run_obtea",
 ]

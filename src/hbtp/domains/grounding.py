@@ -46,6 +46,8 @@ from hbtp.domains.lifted import (
     Domain,
     Effect,
     Equals,
+    Exists,
+    Forall,
     ForallEffect,
     Formula,
     Imply,
@@ -56,9 +58,10 @@ from hbtp.domains.lifted import (
     WhenEffect,
     is_variable,
 )
+from hbtp.domains.quantifiers import expand_domain
 from hbtp.domains.reachability import reachable_actions
 from hbtp.errors import GroundingError, InputError
-from hbtp.logic.atoms import NEGATION, Atom
+from hbtp.logic.atoms import NEGATION, Atom, alternative_name
 from hbtp.logic.negation import with_twin_effects
 from hbtp.logic.task import GroundAction, GroundTask, listing
 
@@ -100,9 +103,11 @@ _Key = tuple[str, tuple[str, ...]]
 NEGATED = NEGATION
 _Template = tuple[tuple[bool, str], ...]  # (is a variable, name) per argument
 _Check = Callable[[Binding], bool]
-_Fluent = Callable[[Binding], "bool | list[_Key]"]
+_Fluent = Callable[[Binding], "bool | list[_Key] | _Choice"]
 _Op = Callable[[Binding, set[_Key], set[_Key], list[int]], None]
-_Built = tuple[tuple[str, ...], list[_Key], set[_Key], set[_Key], int]
+#: A ground action as built: its arguments, its precondition's alternatives (one unless the
+#: precondition has a disjunction over fluents), add, delete and cost.
+_Built = tuple[tuple[str, ...], tuple[tuple[_Key, ...], ...], set[_Key], set[_Key], int]
 _Grounded = tuple[Atom, frozenset[_Key], frozenset[_Key], frozenset[_Key], int]
 _Segment = tuple[list[tuple[str, ...]], tuple[_Check, ...]]  # a forall's values, with their checks
 
@@ -293,7 +298,6 @@ class _Grounder:
         deadline: Deadline | None = None,
         reachable_only: bool = False,
     ) -> None:
-        self.domain = domain
         self.reachable_only = reachable_only
         self.problem = problem
         self.deadline = deadline
@@ -305,6 +309,7 @@ class _Grounder:
         self.fluent = fluent_predicates(domain, keep_fluent)
         self.objects: tuple[TypedName, ...] = (*domain.constants, *problem.objects)
         self.by_type = objects_by_type(domain, self.objects)
+        self.domain = expand_domain(domain, self.domain_of)  # exists/forall become or/and over the objects
         self.static_facts: set[_Key] = set()
         self.static_index: dict[str, list[tuple[str, ...]]] = {}
         self.indexes: dict[tuple[str, tuple[int, ...]], dict[tuple[str, ...], list[tuple[str, ...]]]] = {}
@@ -482,10 +487,26 @@ class _Grounder:
         if isinstance(self.only, Selection) and schema.name not in self.only.predicates:
             return
         counting = self.only is not None
-        for key, pre, add, delete, cost in self.build(schema, costs_only=False):
-            if counting:
-                self._count_kept(schema, key)
-            yield Atom(schema.name, key), frozenset(pre), frozenset(add), frozenset(delete - add), cost
+        names = self._alternative_names(schema)
+        for key, alternatives, add, delete, cost in self.build(schema, costs_only=False):
+            for number, pre in enumerate(alternatives):
+                if counting:
+                    self._count_kept(schema, key)
+                name = names[number] if number < len(names) else alternative_name(schema.name, number)
+                yield Atom(name, key), frozenset(pre), frozenset(add), frozenset(delete - add), cost
+
+    def _alternative_names(self, schema: ActionSchema) -> tuple[str, ...]:
+        """The names of the schema's first ground actions per binding, checked against the declared
+        action names (an alternative's name must not be one of them)."""
+        declared = {a.name.lower() for a in self.domain.actions}
+        names = tuple(alternative_name(schema.name, n) for n in range(8))
+        for name in names[1:]:
+            if name.lower() in declared:
+                raise GroundingError(
+                    f"action {schema.name!r}: its disjunctive precondition's alternatives are named "
+                    f"{names[1]}, {names[2]}, ..., and the domain declares an action {name!r}"
+                )
+        return names
 
     def build(self, schema: ActionSchema, costs_only: bool) -> Iterator[_Built]:
         """The ground actions of ``schema``: arguments, precondition, add, delete (both empty with
@@ -493,7 +514,7 @@ class _Grounder:
         compiled = self._compile(schema)
         ops = compiled.cost_ops if costs_only else compiled.ops
         dropped: list[str] = []
-        for key, binding, pre in self._candidates(schema, compiled):
+        for key, binding, alternatives in self._candidates(schema, compiled):
             add: set[_Key] = set()
             delete: set[_Key] = set()
             costs: list[int] = []
@@ -508,7 +529,7 @@ class _Grounder:
                 raise GroundingError(
                     f"action {Atom(schema.name, key)} costs {cost}, more than the maximum {MAX_ACTION_COST}"
                 )
-            yield key, pre, add, delete, cost
+            yield key, alternatives, add, delete, cost
         if dropped:
             # Fast Downward's translator only instantiates reachable actions, and fails on one whose cost
             # is undefined; hbtp grounds from static facts alone, so it drops them (elevators' slow lifts).
@@ -522,9 +543,9 @@ class _Grounder:
 
     def _candidates(
         self, schema: ActionSchema, compiled: _Schema
-    ) -> Iterator[tuple[tuple[str, ...], Binding, list[_Key]]]:
+    ) -> Iterator[tuple[tuple[str, ...], Binding, tuple[tuple[_Key, ...], ...]]]:
         """Each binding (once) whose static precondition holds, that ``only`` accepts and whose fluent
-        precondition is not false, with the fluent atoms it requires."""
+        precondition is not false, with the fluent literals it requires (each alternative's)."""
         names, fluent, only = compiled.names, compiled.fluent, self.only
         allowed = only.objects if isinstance(only, Selection) else None
         seen: set[tuple[str, ...]] = set()
@@ -537,14 +558,22 @@ class _Grounder:
             if only is not None and not only(schema.name, key):
                 continue
             pre: list[_Key] = []
+            choices: list[_Choice] = []
             for part in fluent:
                 value = part(binding)
-                if isinstance(value, list):
+                if isinstance(value, _Choice):
+                    choices.append(value)
+                elif isinstance(value, list):
                     pre.extend(value)
                 elif not value:
                     break
             else:
-                yield key, binding, pre
+                if not choices:
+                    yield key, binding, (tuple(pre),)
+                    continue
+                combined = _conjoined([pre, *choices], schema)
+                if not isinstance(combined, bool):
+                    yield key, binding, _alternatives(combined)
 
     # ----------------------------------------------------- static / fluent
     def _is_static(self, formula: Formula) -> bool:
@@ -556,6 +585,8 @@ class _Grounder:
             return self._is_static(formula.operand)
         if isinstance(formula, And | Or):
             return all(self._is_static(p) for p in formula.parts)
+        if isinstance(formula, Exists | Forall):
+            return False  # expand_domain removes them; never joined as static
         return self._is_static(formula.antecedent) and self._is_static(formula.consequent)
 
     def _split_precondition(self, formula: Formula) -> tuple[list[Formula], list[Formula]]:
@@ -606,6 +637,7 @@ class _Grounder:
             if isinstance(formula, And):
                 return lambda binding: all(part(binding) for part in parts)
             return lambda binding: any(part(binding) for part in parts)
+        assert isinstance(formula, Imply), "quantifiers are expanded first"
         antecedent, consequent = self._static_test(formula.antecedent), self._static_test(formula.consequent)
         return lambda binding: not antecedent(binding) or consequent(binding)
 
@@ -824,48 +856,42 @@ class _Grounder:
         return variables, _fact_check(formula.predicate, formula.terms, self.static_facts, literal.positive)
 
     # ------------------------------------------------------------- simplify
-    def _simplify(self, formula: Formula, binding: Binding, schema: ActionSchema) -> bool | list[_Key]:
-        """Evaluate static parts; what remains must be a conjunction of positive fluent atoms."""
+    def _simplify(
+        self, formula: Formula, binding: Binding, schema: ActionSchema, positive: bool = True
+    ) -> bool | list[_Key] | _Choice:
+        """Evaluate static parts (negated when not ``positive``); what remains is a conjunction of
+        fluent literals, or a :class:`_Choice` of such conjunctions when a disjunction over fluents
+        remains (the action then has one ground action per alternative)."""
         if isinstance(formula, AtomFormula):
             terms = tuple(_subst(t, binding) for t in formula.terms)
             if formula.predicate in self.fluent:
-                return [(formula.predicate, terms)]
-            return (formula.predicate, terms) in self.static_facts
+                return [(formula.predicate if positive else NEGATED + formula.predicate, terms)]
+            return ((formula.predicate, terms) in self.static_facts) == positive
         if isinstance(formula, Equals):
-            return _subst(formula.left, binding) == _subst(formula.right, binding)
+            return (_subst(formula.left, binding) == _subst(formula.right, binding)) == positive
         if isinstance(formula, Not):
-            inner = self._simplify(formula.operand, binding, schema)
-            if isinstance(inner, bool):
-                return not inner
-            if len(inner) == 1 and not inner[0][0].startswith(NEGATED):
-                return [(NEGATED + inner[0][0], inner[0][1])]
-            raise self._not_strips(schema, formula.line, "a negated conjunction of fluent conditions")
-        if isinstance(formula, And):
-            atoms: list[_Key] = []
-            for part in formula.parts:
-                value = self._simplify(part, binding, schema)
-                if value is False:
-                    return False
-                if value is not True:
-                    atoms.extend(value)
-            return atoms or True
-        if isinstance(formula, Or):
-            remaining: list[list[_Key]] = []
-            for part in formula.parts:
-                value = self._simplify(part, binding, schema)
-                if value is True:
-                    return True
-                if value is not False:
-                    remaining.append(value)
-            if not remaining:
-                return False
-            if len(remaining) == 1:
-                return remaining[0]
-            raise self._not_strips(schema, formula.line, "a disjunction over fluents")
-        antecedent = self._simplify(formula.antecedent, binding, schema)
-        if not isinstance(antecedent, bool):
-            raise self._not_strips(schema, formula.line, "(imply ...) with a fluent antecedent")
-        return self._simplify(formula.consequent, binding, schema) if antecedent else True
+            return self._simplify(formula.operand, binding, schema, not positive)
+        if isinstance(formula, Imply):
+            parts: tuple[tuple[Formula, bool], ...] = (
+                (formula.antecedent, not positive),
+                (formula.consequent, positive),
+            )
+            conjunctive = not positive
+        elif isinstance(formula, And | Or):
+            parts = tuple((part, positive) for part in formula.parts)
+            conjunctive = isinstance(formula, And) == positive
+        else:
+            raise self._not_strips(schema, formula.line, "a quantifier left unexpanded")  # expand_domain removes them
+        values: list[list[_Key] | _Choice] = []
+        for part, polarity in parts:
+            value = self._simplify(part, binding, schema, polarity)
+            if value is not conjunctive and isinstance(value, bool):
+                return value  # False decides a conjunction, True a disjunction
+            if not isinstance(value, bool):
+                values.append(value)
+        if not values:
+            return conjunctive
+        return _conjoined(values, schema) if conjunctive else _disjoined(values, schema)
 
     def _not_strips(self, schema: ActionSchema, line: int, what: str) -> GroundingError:
         where = f" (line {line})" if line else ""
@@ -974,6 +1000,58 @@ class _Forall:
 
 
 # ======================================================================= helpers
+class _Choice(tuple[tuple[_Key, ...], ...]):
+    """Two or more alternative conjunctions of fluent literals (a disjunctive precondition)."""
+
+
+def _alternatives(value: list[_Key] | _Choice) -> tuple[tuple[_Key, ...], ...]:
+    return value if isinstance(value, _Choice) else (tuple(value),)
+
+
+def _choice(alternatives: Iterable[tuple[_Key, ...]], schema: ActionSchema) -> bool | list[_Key] | _Choice:
+    """The alternatives that can hold (no ``p`` with ``~p``), each once, without those that ask for
+    more than another one does (their actions would be redundant)."""
+    kept: list[frozenset[_Key]] = []
+    for alternative in alternatives:
+        literals = frozenset(alternative)
+        if any((NEGATED + p, args) in literals for p, args in literals if not p.startswith(NEGATED)):
+            continue
+        if literals not in kept:
+            kept.append(literals)
+    if not kept:
+        return False
+    minimal = [a for a in kept if not any(b < a for b in kept)]
+    if len(minimal) > MAX_DNF_TERMS:
+        raise GroundingError(
+            f"action {schema.name!r}: a disjunctive precondition has more than {MAX_DNF_TERMS:,} alternatives"
+        )
+    if len(minimal) == 1:
+        return sorted(minimal[0])
+    return _Choice(tuple(sorted(a)) for a in minimal)
+
+
+def _conjoined(values: Sequence[list[_Key] | _Choice], schema: ActionSchema) -> bool | list[_Key] | _Choice:
+    """The conjunction of ``values``: a list when none is a choice, else the product of the choices."""
+    if not any(isinstance(v, _Choice) for v in values):
+        return [key for value in values if isinstance(value, list) for key in value]
+    combined: list[tuple[_Key, ...]] = [()]
+    for value in values:
+        options = _alternatives(value)
+        if len(combined) * len(options) > MAX_DNF_TERMS:
+            raise GroundingError(
+                f"action {schema.name!r}: a disjunctive precondition has more than {MAX_DNF_TERMS:,} alternatives"
+            )
+        combined = [left + right for left in combined for right in options]
+    return _choice(combined, schema)
+
+
+def _disjoined(values: Sequence[list[_Key] | _Choice], schema: ActionSchema) -> bool | list[_Key] | _Choice:
+    """The disjunction of ``values`` (each a conjunction or a choice)."""
+    if len(values) == 1:
+        return values[0]
+    return _choice((a for value in values for a in _alternatives(value)), schema)
+
+
 class _UndefinedCost(Exception):
     """A ground action's cost names a function value that :init does not define."""
 
@@ -1014,6 +1092,8 @@ def _variables(formula: Formula) -> set[str]:
         return _variables(formula.operand)
     if isinstance(formula, And | Or):
         return set().union(*(_variables(part) for part in formula.parts))
+    if isinstance(formula, Exists | Forall):
+        return _variables(formula.body) - {v.name for v in formula.variables}
     return _variables(formula.antecedent) | _variables(formula.consequent)
 
 
@@ -1025,6 +1105,7 @@ def _dnf_size(formula: Formula, positive: bool = True) -> int:
         return _dnf_size(formula.operand, not positive)
     if isinstance(formula, Imply):
         return _dnf_size(Or((Not(formula.antecedent), formula.consequent)), positive)
+    assert not isinstance(formula, Exists | Forall), "quantifiers are expanded first"
     sizes = [_dnf_size(part, positive) for part in formula.parts]
     return math.prod(sizes) if isinstance(formula, And) == positive else sum(sizes)
 
@@ -1048,6 +1129,7 @@ def _dnf(formula: Formula, positive: bool = True) -> list[list[_Literal]]:
         return _dnf(formula.operand, not positive)
     if isinstance(formula, Imply):
         return _dnf(Or((Not(formula.antecedent), formula.consequent)), positive)
+    assert not isinstance(formula, Exists | Forall), "quantifiers are expanded first"
     conjunctive = isinstance(formula, And) == positive
     children = [_dnf(part, positive) for part in formula.parts]
     if not conjunctive:

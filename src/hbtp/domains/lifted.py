@@ -1,8 +1,9 @@
 """The lifted model of a PDDL domain and problem (the supported subset).
 
-Supported: STRIPS with ``:typing``, ``:equality``, ``:action-costs``, and conditions that depend only
-on static facts (``or``, ``not``, ``imply``, ``=``, ``forall``/``when`` in effects). Static parts are
-compiled away by :mod:`hbtp.domains.grounding`.
+Supported: STRIPS with ``:typing``, ``:equality``, ``:action-costs``, ``:negative-preconditions``,
+conditions with ``or``, ``not``, ``imply``, ``=``, ``exists`` and ``forall`` (over the finite objects),
+and ``forall``/``when`` in effects where the ``when`` condition depends only on static facts. Static
+parts, quantifiers and disjunctions are compiled away by :mod:`hbtp.domains.grounding`.
 
 Nodes keep the ``line`` they were read from, for messages; it takes no part in equality, so a domain
 read back from written text equals the original.
@@ -75,7 +76,27 @@ class Imply:
     line: int = field(default=0, compare=False)
 
 
-Formula = AtomFormula | Equals | Not | And | Or | Imply
+@dataclass(frozen=True, slots=True)
+class Exists:
+    """``(exists (?v - type ...) body)``: the body holds for some objects of the variables' types."""
+
+    variables: tuple[TypedName, ...]
+    body: Formula
+    line: int = field(default=0, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Forall:
+    """``(forall (?v - type ...) body)``: the body holds for all objects of the variables' types."""
+
+    variables: tuple[TypedName, ...]
+    body: Formula
+    line: int = field(default=0, compare=False)
+
+
+Formula = AtomFormula | Equals | Not | And | Or | Imply | Exists | Forall
+#: The quantified conditions.
+Quantified = (Exists, Forall)
 
 
 # --------------------------------------------------------------------- effects

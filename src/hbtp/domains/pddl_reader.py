@@ -29,6 +29,8 @@ from hbtp.domains.lifted import (
     Domain,
     Effect,
     Equals,
+    Exists,
+    Forall,
     ForallEffect,
     Formula,
     Imply,
@@ -51,6 +53,9 @@ SUPPORTED_REQUIREMENTS = frozenset(
         ":action-costs",
         ":negative-preconditions",
         ":disjunctive-preconditions",
+        ":existential-preconditions",
+        ":universal-preconditions",
+        ":quantified-preconditions",
         ":conditional-effects",
         ":adl",
     }
@@ -208,10 +213,23 @@ class _Reader:
             left, right = (self.term(a, context) for a in args)
             return Equals(left, right, node.line)
         if head in ("exists", "forall"):
-            raise self.fail(f"quantified conditions ({head}) are not supported", node)
+            return self.quantified(node, context, Exists if head == "exists" else Forall)
         if head in ("<", ">", "<=", ">="):
             raise self.fail(f"numeric conditions ({head}) are not supported", node)
         return self.atom(node, context)
+
+    def quantified(self, node: SList, context: _Scope, kind: type[Exists] | type[Forall]) -> Formula:
+        """``(exists (?v - t ...) body)`` or ``(forall ...)``, its variables in scope in ``body``."""
+        args = node.items[1:]
+        word = "exists" if kind is Exists else "forall"
+        if len(args) != 2:
+            raise self.fail(f"({word} (?vars) condition) takes two parts", node)
+        variables = self.typed_list(self.expect_list(args[0], "(?vars)").items, variables=True)
+        if not variables:
+            raise self.fail(f"({word} ...) binds no variable", node)
+        if self.declared_types is not None:
+            self.check_types(variables, "", self.declared_types)
+        return kind(tuple(variables), self.formula(args[1], context.extended(variables)), node.line)
 
     def keyword(self, node: SList, context: _Scope) -> str:
         """The lower-cased head of ``node``, or '' when it names a declared predicate.

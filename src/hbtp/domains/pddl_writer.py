@@ -18,6 +18,7 @@ from hbtp.domains.lifted import (
     Domain,
     Effect,
     Equals,
+    Exists,
     ForallEffect,
     Formula,
     Imply,
@@ -58,8 +59,10 @@ def format_formula(formula: Formula) -> str:
         return f"(and {' '.join(format_formula(p) for p in formula.parts)})".replace("(and )", "(and)")
     if isinstance(formula, Or):
         return f"(or {' '.join(format_formula(p) for p in formula.parts)})"
-    assert isinstance(formula, Imply)
-    return f"(imply {format_formula(formula.antecedent)} {format_formula(formula.consequent)})"
+    if isinstance(formula, Imply):
+        return f"(imply {format_formula(formula.antecedent)} {format_formula(formula.consequent)})"
+    word = "exists" if isinstance(formula, Exists) else "forall"
+    return f"({word} ({_typed(formula.variables)}) {format_formula(formula.body)})"
 
 
 def format_effect(effect: Effect) -> str:

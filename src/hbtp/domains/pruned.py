@@ -46,6 +46,8 @@ from hbtp.domains.lifted import (
     AtomFormula,
     DeleteEffect,
     Effect,
+    Exists,
+    Forall,
     ForallEffect,
     Formula,
     Imply,
@@ -242,6 +244,11 @@ class _SlotWalker:
         elif isinstance(formula, Imply):
             self.formula(formula.antecedent)
             self.formula(formula.consequent)
+        elif isinstance(formula, Exists | Forall):
+            inner = dict(self.values)
+            for variable in formula.variables:
+                inner[variable.name] = self._range(variable, formula.body)
+            dataclasses.replace(self, values=inner).formula(formula.body)
 
     def effect(self, effect: Effect) -> None:
         if isinstance(effect, ForallEffect):

@@ -21,10 +21,23 @@ from hbtp.collector import collector_paused
 from hbtp.deadline import Deadline, check_deadline
 from hbtp.domains import cache
 from hbtp.domains.cache import cache_dir
-from hbtp.domains.grounding import ActionFilter, ground
-from hbtp.domains.lifted import And, AtomFormula, Domain, Formula, Imply, Not, Or, Problem
+from hbtp.domains.grounding import ActionFilter, ground, objects_by_type
+from hbtp.domains.lifted import (
+    And,
+    AtomFormula,
+    Domain,
+    Equals,
+    Formula,
+    Imply,
+    Not,
+    Or,
+    Problem,
+    TypedName,
+    is_variable,
+)
 from hbtp.domains.mutex import Mutexes, infer_mutexes, with_negation_groups
 from hbtp.domains.pddl_reader import read_domain_file, read_problem_file
+from hbtp.domains.quantifiers import expand_formula
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
 from hbtp.logic.negation import with_negations
@@ -44,7 +57,8 @@ class Pddl:
 
 
 def _goal_text(formula: Formula, source: Path) -> str:
-    """A PDDL goal formula as infix goal text (see :mod:`hbtp.logic.goals`)."""
+    """A PDDL goal formula without quantifiers, ``imply`` or ground equalities (see
+    :func:`_equalities_evaluated`) as infix goal text (see :mod:`hbtp.logic.goals`)."""
     if isinstance(formula, AtomFormula):
         return f"{formula.predicate}({','.join(formula.terms)})"
     if isinstance(formula, Not):
@@ -53,9 +67,38 @@ def _goal_text(formula: Formula, source: Path) -> str:
         joiner = " & " if isinstance(formula, And) else " | "
         text = joiner.join(_goal_text(part, source) for part in formula.parts)
         return text if len(formula.parts) == 1 else f"({text})"
-    if isinstance(formula, Imply):
-        return f"(~({_goal_text(formula.antecedent, source)}) | {_goal_text(formula.consequent, source)})"
     raise InputError(f"{source}:{formula.line or '?'}: the problem's :goal compares objects (=); give the goal with -g")
+
+
+def _objects_of(by_type: Mapping[str, tuple[str, ...]], typed: TypedName) -> tuple[str, ...]:
+    return tuple(dict.fromkeys(o for t in typed.types for o in by_type.get(t, ())))
+
+
+def _equalities_evaluated(formula: Formula) -> Formula | bool:
+    """``formula`` with its equalities between objects evaluated and the constants folded away
+    (``True``/``False`` when the whole formula is decided)."""
+    if isinstance(formula, Equals):
+        return (
+            formula.left == formula.right if not (is_variable(formula.left) or is_variable(formula.right)) else formula
+        )
+    if isinstance(formula, Not):
+        inner = _equalities_evaluated(formula.operand)
+        return (not inner) if isinstance(inner, bool) else Not(inner, formula.line)
+    if isinstance(formula, Imply):
+        return _equalities_evaluated(Or((Not(formula.antecedent), formula.consequent), formula.line))
+    if isinstance(formula, And | Or):
+        absorbing = isinstance(formula, Or)  # True absorbs a disjunction, False a conjunction
+        parts: list[Formula] = []
+        for part in formula.parts:
+            value = _equalities_evaluated(part)
+            if value is absorbing:
+                return absorbing
+            if not isinstance(value, bool):
+                parts.append(value)
+        if not parts:
+            return not absorbing
+        return parts[0] if len(parts) == 1 else type(formula)(tuple(parts), formula.line)
+    return formula
 
 
 def read_pddl(domain_file: str | Path, problem_file: str | Path, deadline: Deadline | None = None) -> Pddl:
@@ -99,7 +142,16 @@ class Scenario:
         goal = self.pddl.problem.goal
         if isinstance(goal, And) and not goal.parts:
             raise InputError(f"{self.problem_file}: the problem has no :goal to plan for; give one with -g")
-        return _goal_text(goal, self.problem_file)
+        pddl = self.pddl
+        by_type = objects_by_type(pddl.domain, (*pddl.domain.constants, *pddl.problem.objects))
+        objects_of = functools.partial(_objects_of, by_type)
+        expanded = _equalities_evaluated(expand_formula(goal, objects_of, f"{self.problem_file}: the :goal"))
+        if isinstance(expanded, bool):
+            raise InputError(
+                f"{self.problem_file}: the problem's :goal is {'always' if expanded else 'never'} true "
+                "once its exists/forall and = are evaluated; give a goal with -g"
+            )
+        return _goal_text(expanded, self.problem_file)
 
     def resolve_goal(self, goal: str | Goal | Iterable[Atom | str]) -> tuple[Scenario, Goal]:
         """The goal resolved, with the scenario to plan it in: this one, or this one with the negated

@@ -22,6 +22,20 @@ _BARE_NAME = re.compile(rf"^\s*({_NAME})\s*$")
 _SHOWN = 80  # characters of an offending text quoted in an error message
 #: The mark of a negated literal, ``~IsOpen(fridge)`` (also in the scenario cache and the grounder's keys).
 NEGATION = "~"
+#: The mark of the further ground actions of an action whose precondition has a disjunction over
+#: fluents: ``move(a,b)``, ``move-alt2(a,b)``, ... one per alternative (see :func:`alternative_name`).
+ALTERNATIVE = "-alt"
+_ALTERNATIVE_SUFFIX = re.compile(rf"{re.escape(ALTERNATIVE)}[0-9]+$")
+
+
+def alternative_name(action: str, number: int) -> str:
+    """The name of alternative ``number`` (from 0) of ``action``: ``action`` itself, then ``action-alt2``, ..."""
+    return action if number == 0 else f"{action}{ALTERNATIVE}{number + 1}"
+
+
+def declared_action(name: str) -> str:
+    """The declared action an alternative's name stands for (``move-alt2`` -> ``move``), else ``name``."""
+    return _ALTERNATIVE_SUFFIX.sub("", name)
 
 
 def _quoted(text: str) -> str:
