@@ -176,6 +176,15 @@ class GroundTask:
         return tuple(tuple(ids) for ids in table)
 
     @cached_property
+    def consumers(self) -> tuple[tuple[int, ...], ...]:
+        """For each atom id, the indices of the actions whose precondition holds it."""
+        table: list[list[int]] = [[] for _ in self.atoms]
+        for action in self.actions:
+            for atom in action.pre:
+                table[atom].append(action.index)
+        return tuple(tuple(ids) for ids in table)
+
+    @cached_property
     def symbols(self) -> frozenset[str]:
         return frozenset(self.objects) | frozenset(self.constants)
 
@@ -208,8 +217,8 @@ class GroundTask:
 
     #: The lookups above that do not depend on s0 (kept by :meth:`from_state`).
     _STATE_FREE = (
-        "atom_ids", "action_ids", "action_predicates", "achievers", "symbols", "static_arities", "categories",
-        "negation_ids",
+        "atom_ids", "action_ids", "action_predicates", "achievers", "consumers", "symbols", "static_arities",
+        "categories", "negation_ids", "_state_free_derived",
     )  # fmt: skip
 
     def from_state(self, state: Iterable[int]) -> GroundTask:
@@ -226,16 +235,21 @@ class GroundTask:
     def _derived(self) -> dict[Hashable, Any]:
         return {}
 
-    def derived(self, key: Hashable, build: Callable[[], _T]) -> _T:
+    @cached_property
+    def _state_free_derived(self) -> dict[Hashable, Any]:
+        return {}
+
+    def derived(self, key: Hashable, build: Callable[[], _T], *, state_free: bool = False) -> _T:
         """What ``build()`` computes from this task, computed once and kept with the task.
 
         The one home of every per-task table the layers above need (the prompt vocabulary, the
         heuristics' analyses, the disturbance model…): it lives exactly as long as the task, unlike a
         module-level cache. ``key`` names the table, usually the building function itself, or a
-        tuple of it and its arguments. Not thread-safe against two first builds of one key (both
-        compute the same value; one is kept).
+        tuple of it and its arguments. A ``state_free`` table (one that does not depend on s0) is
+        shared with the tasks :meth:`from_state` makes. Not thread-safe against two first builds of
+        one key (both compute the same value; one is kept).
         """
-        memo = self._derived
+        memo = self._state_free_derived if state_free else self._derived
         try:
             return cast(_T, memo[key])
         except KeyError:
@@ -245,11 +259,13 @@ class GroundTask:
     def forget_derived(self) -> None:
         """Drop every table :meth:`derived` keeps (they are rebuilt on demand)."""
         self._derived.clear()
+        self._state_free_derived.clear()
 
     def __getstate__(self) -> dict[str, Any]:
         # Derived tables are rebuilt where the task is unpickled (a worker process), not shipped.
         state = dict(self.__dict__)
         state.pop("_derived", None)
+        state.pop("_state_free_derived", None)
         return state
 
     def atom(self, atom_id: int) -> Atom:

@@ -23,7 +23,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
-from typing import Literal, Protocol
+from typing import Literal, Protocol, overload
 
 from hbtp.deadline import Deadline
 from hbtp.logic.task import GroundAction, GroundTask
@@ -55,18 +55,43 @@ def hmax_table(
     ``costs`` overrides action costs by action index (the discounted costs of HBTP). Past
     ``deadline`` it raises :class:`~hbtp.deadline.TimeLimitReached`.
     """
-    cost = [math.inf] * len(task.atoms)
-    waiting = [len(a.pre) for a in actions]
-    users: dict[int, list[int]] = {}
-    for position, action in enumerate(actions):
+    return _explore(task, actions, costs, deadline)[0]
+
+
+def _consumers(task: GroundTask, actions: Sequence[GroundAction]) -> Sequence[Sequence[int]]:
+    """For each atom id, the indices of the actions of ``actions`` whose precondition holds it (the
+    task's own table, shared by every s0, when ``actions`` are all of them)."""
+    if len(actions) == len(task.actions):
+        return task.consumers
+    users: list[list[int]] = [[] for _ in task.atoms]
+    for action in actions:
         for atom in action.pre:
-            users.setdefault(atom, []).append(position)
+            users[atom].append(action.index)
+    return users
+
+
+def _explore(
+    task: GroundTask,
+    actions: Sequence[GroundAction],
+    costs: Mapping[int, float] | None = None,
+    deadline: Deadline | None = None,
+) -> tuple[list[float], list[int]]:
+    """:func:`hmax_table`, and the indices of the actions whose precondition became reachable, in
+    the order it did (by increasing h_max of the precondition)."""
+    cost = [math.inf] * len(task.atoms)
+    everything = task.actions
+    waiting: dict[int, int] | list[int] = (
+        [len(a.pre) for a in everything] if len(actions) == len(everything) else {a.index: len(a.pre) for a in actions}
+    )
+    users = _consumers(task, actions)
     heap: list[tuple[float, int]] = []
     for atom in sorted(task.initial_state):
         cost[atom] = 0.0
         heapq.heappush(heap, (0.0, atom))
+    fired: list[int] = []
 
     def relax(action: GroundAction, pre_cost: float) -> None:
+        fired.append(action.index)
         value = pre_cost + (costs[action.index] if costs is not None else action.cost)
         for atom in action.add:
             if value < cost[atom]:
@@ -86,58 +111,105 @@ def hmax_table(
         if done[atom] or value > cost[atom]:
             continue
         done[atom] = True
-        for position in users.get(atom, ()):
-            waiting[position] -= 1
-            if waiting[position] == 0:
-                action = actions[position]
-                relax(action, max(cost[p] for p in action.pre))
-    return cost
+        for index in users[atom]:
+            waiting[index] -= 1
+            if waiting[index] == 0:
+                action = everything[index]
+                relax(action, value)  # the last precondition reached is the costliest
+    return cost, fired
 
 
 def landmark_table(
-    task: GroundTask, actions: Sequence[GroundAction], reachable: Sequence[float], deadline: Deadline | None = None
-) -> list[frozenset[int] | None]:
+    task: GroundTask,
+    actions: Sequence[GroundAction],
+    reachable: Sequence[float],
+    deadline: Deadline | None = None,
+    order: Sequence[int] | None = None,
+) -> Landmarks:
     """For each atom id, its fact landmarks from s0 (``None`` when unreachable).
 
     The greatest fixpoint of ``LM(f) = {f} | ⋂ over the achievers a of f of ⋃ LM(pre(a))`` (``LM``
     of an s0 atom: itself), reached from "every atom" downwards: one pass over the usable actions
-    in order of their h_max, then only the actions whose precondition's landmarks changed."""
-    table: list[frozenset[int] | None] = [None] * len(task.atoms)
+    in order of their h_max (``order``, the indices :func:`_explore` gives, saves sorting them),
+    then only the actions whose precondition's landmarks changed. The sets are computed as bit
+    masks (a union or an intersection is one integer operation) and read out as frozensets when
+    first asked for (:class:`Landmarks`)."""
+    table: list[int | None] = [None] * len(task.atoms)
     for atom in task.initial_state:
-        table[atom] = frozenset((atom,))
-    usable = [a for a in actions if all(not math.isinf(reachable[p]) for p in a.pre)]
-    usable.sort(key=lambda a: (max((reachable[p] for p in a.pre), default=0.0), a.index))
-    users: dict[int, list[int]] = {}
-    for position, action in enumerate(usable):
-        for atom in action.pre:
-            users.setdefault(atom, []).append(position)
-    queued = [True] * len(usable)
-    pending = list(range(len(usable) - 1, -1, -1))  # popped from the end: the first pass in order
+        table[atom] = 1 << atom
+    if order is None:
+        usable = [a for a in actions if all(not math.isinf(reachable[p]) for p in a.pre)]
+        usable.sort(key=lambda a: (max((reachable[p] for p in a.pre), default=0.0), a.index))
+        order = [a.index for a in usable]
+    users = _consumers(task, actions)
+    everything = task.actions
+    queued = dict.fromkeys(order, True)
+    pending = list(reversed(order))  # popped from the end: the first pass in order
     steps = 0
     while pending:
-        position = pending.pop()
-        queued[position] = False
+        index = pending.pop()
+        queued[index] = False
         steps += 1
         if deadline is not None and steps & 255 == 0:
             deadline.check(_SETUP)
-        action = usable[position]
-        parts = [table[p] for p in action.pre]
-        if any(part is None for part in parts):
-            continue
-        needed: frozenset[int] = frozenset().union(*parts) if parts else frozenset()  # type: ignore[arg-type]
-        for atom in action.add:
-            old, new = table[atom], needed | {atom}
-            if old is None:
-                table[atom] = new
-            elif not old <= new:
-                table[atom] = old & new
-            else:
-                continue
-            for user in users.get(atom, ()):
-                if not queued[user]:
-                    queued[user] = True
-                    pending.append(user)
-    return table
+        action = everything[index]
+        needed = 0
+        for p in action.pre:
+            part = table[p]
+            if part is None:
+                break
+            needed |= part
+        else:
+            for atom in action.add:
+                old, new = table[atom], needed | (1 << atom)
+                if old is None:
+                    table[atom] = new
+                elif old & ~new:
+                    table[atom] = old & new
+                else:
+                    continue
+                for user in users[atom]:
+                    if queued.get(user) is False:
+                        queued[user] = True
+                        pending.append(user)
+    return Landmarks(table)
+
+
+class Landmarks(Sequence["frozenset[int] | None"]):
+    """By atom id, its landmarks as a frozenset (``None``: unreachable), read out of a bit mask when
+    first asked for (a search asks for few of the atoms)."""
+
+    def __init__(self, masks: list[int | None]) -> None:
+        self.masks = masks
+        self.known: dict[int, frozenset[int] | None] = {}
+
+    @overload
+    def __getitem__(self, index: int) -> frozenset[int] | None: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> Sequence[frozenset[int] | None]: ...
+
+    def __getitem__(self, index: int | slice) -> frozenset[int] | Sequence[frozenset[int] | None] | None:
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self.masks)))]
+        known = self.known
+        if index in known:
+            return known[index]
+        mask = self.masks[index]
+        value = None if mask is None else frozenset(_bits(mask))
+        known[index] = value
+        return value
+
+    def __len__(self) -> int:
+        return len(self.masks)
+
+
+def _bits(mask: int) -> Iterator[int]:
+    """The positions of the bits set in ``mask``, lowest first."""
+    while mask:
+        low = mask & -mask
+        yield low.bit_length() - 1
+        mask ^= low
 
 
 def landmark_costs(
@@ -160,15 +232,23 @@ def landmark_costs(
     return share
 
 
+def _shares(task: GroundTask, actions: Sequence[GroundAction]) -> tuple[frozenset[int], list[float]]:
+    """The atoms some precondition of ``actions`` holds, and :func:`landmark_costs` for them."""
+    pre_atoms: frozenset[int] = frozenset().union(*(a.pre for a in actions)) if actions else frozenset()
+    return pre_atoms, landmark_costs(task, actions, pre_atoms)
+
+
 class SpaceAnalysis:
     """What the heuristics need from an action space, independent of the goal (cached)."""
 
     def __init__(self, task: GroundTask, actions: Sequence[GroundAction], deadline: Deadline | None = None) -> None:
         self.actions = actions
-        self.hmax = hmax_table(task, actions, deadline=deadline)
-        self.landmarks = landmark_table(task, actions, self.hmax, deadline)
-        self.pre_atoms: frozenset[int] = frozenset().union(*(a.pre for a in actions)) if actions else frozenset()
-        self.shares = landmark_costs(task, actions, self.pre_atoms)
+        self.hmax, order = _explore(task, actions, deadline=deadline)
+        self.landmarks = landmark_table(task, actions, self.hmax, deadline, order)
+        if len(actions) == len(task.actions):  # the same for every s0: kept for re-planning
+            self.pre_atoms, self.shares = task.derived(_shares, lambda: _shares(task, actions), state_free=True)
+        else:
+            self.pre_atoms, self.shares = _shares(task, actions)
         # For each action, the landmarks of its precondition that s0 lacks (None: a dead end),
         # computed when the search first asks (it asks for few of the actions).
         self.pre_landmarks = PreconditionLandmarks(task, actions, self.landmarks)
