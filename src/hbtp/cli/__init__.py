@@ -30,6 +30,7 @@ from hbtp.cli.plan_command import plan_command
 from hbtp.cli.robustness_command import robustness
 from hbtp.cli.run_command import run_command, verify_command
 from hbtp.cli.validate_command import validate_optimal
+from hbtp.cli.view_command import view_command
 from hbtp.errors import HbtpError
 
 EXIT_OK, EXIT_NOT_SOLVED, EXIT_INPUT, EXIT_INTERNAL = (
@@ -59,6 +60,7 @@ cli.add_command(bench)
 cli.add_command(export_command)
 cli.add_command(run_command)
 cli.add_command(verify_command)
+cli.add_command(view_command)
 bench.add_command(robustness)
 cli.add_command(validate_optimal)
 cli.add_command(examples)
