@@ -127,7 +127,16 @@ def test_pddl_validate_runs_fast_downward_where_no_reference(tmp_path: Path) -> 
     (root / "s2.pddl").write_text(_switch_problem("s2", 2), encoding="utf-8")
     out = tmp_path / "out"
     assert main(["bench", "pddl", str(root.parent), "--validate", *INLINE, "-o", str(out)]) == EXIT_OK
-    (row,) = rows(out / "results.jsonl")
-    assert row["reference_source"] == "fast-downward"
-    assert row["reference_cost"] == row["cost"] == 2
-    assert not row["mismatch"]
+    ours, fd = rows(out / "results.jsonl")
+    assert (ours["planner"], fd["planner"]) == ("obtea", "fast-downward")
+    assert ours["cost"] == fd["cost"] == 2
+    assert fd["actions"] > 0  # the translator's operators
+    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    assert summary["planners"]["fast-downward"]["verified"] == 1
+    assert summary["compared"] == 1
+    assert summary["mismatches"] == []
+    assert summary["grounding"]["instances"] == 1
+    assert summary["grounding"]["max_ratio"] == ours["actions"] / fd["actions"]
+    report = (out / "report.md").read_text(encoding="utf-8")
+    assert "Fast Downward (A* + LM-cut)" in report
+    assert "translator's operators on 1 instances" in report

@@ -204,3 +204,41 @@ def test_dataset_goes_with_one_scenario() -> None:
         validate_optimal, ["-s", "robowaiter", "-s", "virtualhome", "--dataset", "x"], standalone_mode=False
     )
     assert isinstance(result.exception, InputError)
+
+
+IPC = Path(__file__).resolve().parents[2] / "shared" / "benchmarks" / "ipc"
+
+
+def _smallest(domain: str) -> tuple[str, str]:
+    problems = sorted(p for p in (IPC / domain).glob("*.pddl") if "domain" not in p.name)
+    return str(IPC / domain / "domain.pddl"), str(problems[0])
+
+
+@pytest.mark.validate
+@pytest.mark.usefixtures("fast_downward")
+def test_validate_optimal_on_pddl_files_uses_fast_downwards_own_translator(tmp_path: Path) -> None:
+    if not IPC.is_dir():
+        pytest.skip(f"no IPC benchmarks at {IPC}")
+    argv = ["--json", "-t", "60"]
+    for domain in ("gripper", "blocks"):
+        argv += ["--pddl", *_smallest(domain)]
+    result = CliRunner().invoke(validate_optimal, argv, standalone_mode=False)
+    assert result.exception is None, result.output
+    assert result.return_value == 0
+    document = json.loads(result.output)
+    assert document["summary"] == {"instances": 2, "mismatches": 0}
+    for row in document["rows"]:
+        assert row["match"], row
+        assert row["tree_verified"], row
+        assert row["obtea_cost"] == row["fd_cost"] is not None
+        assert row["fd_operators"] > 0
+        assert row["ground_ratio"] == round(row["grounded_actions"] / row["fd_operators"], 3)
+
+
+def test_pddl_files_go_without_scenarios(tmp_path: Path) -> None:
+    (tmp_path / "d.pddl").write_text("(define (domain d))", encoding="utf-8")
+    (tmp_path / "p.pddl").write_text("(define (problem p) (:domain d))", encoding="utf-8")
+    argv = ["-s", "robowaiter", "--pddl", str(tmp_path / "d.pddl"), str(tmp_path / "p.pddl")]
+    result = CliRunner().invoke(validate_optimal, argv, standalone_mode=False)
+    assert isinstance(result.exception, InputError)
+    assert "without --scenario" in str(result.exception)

@@ -46,14 +46,18 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Literal, NamedTuple
 
+from hbtp.bt import tree_of
+from hbtp.bt.simulate import simulate
+from hbtp.bt.verify import verify
 from hbtp.datasets import dataset_names, load_dataset, read_dataset_file
 from hbtp.datasets.records import Record
-from hbtp.domains import Scenario, load_scenario, write_grounded
+from hbtp.domains import Scenario, load_pddl_scenario, load_scenario, write_grounded
 from hbtp.domains.mutex import Mutexes
 from hbtp.domains.pddl_writer import GOAL_ACTION, keyword_safe_predicates
+from hbtp.domains.scenarios import ScenarioOptions
 from hbtp.errors import BackendError, InputError
 from hbtp.logic.task import Goal, GroundAction, GroundTask
-from hbtp.planning import Limits, Status, plan
+from hbtp.planning import Limits, PlanResult, Status, plan
 
 log = logging.getLogger(__name__)
 
@@ -63,6 +67,8 @@ ENGINE = "fast-downward-opt"
 SEARCH = "astar(lmcut())"
 #: The search for files whose translation may have axioms (see :func:`lifted_fast_downward_cost`).
 BLIND_SEARCH = "astar(blind())"
+#: The translator's count of ground operators in the driver's output.
+_OPERATORS_LINE = re.compile(r"^Translator operators: (\d+)$", re.MULTILINE)
 #: ``auto`` runs the driver for tasks with more grounded actions than this.
 AUTO_DRIVER_ACTIONS = 1000
 Engine = Literal["auto", "unified-planning", "driver"]
@@ -119,6 +125,8 @@ class _Outcome(NamedTuple):
     names: tuple[str, ...] = ()
     reported_cost: int | None = None
     message: str = ""
+    #: Fast Downward's translator's ground operators (the driver's output), when known.
+    operators: int | None = None
 
 
 @dataclass(frozen=True)
@@ -187,26 +195,51 @@ def fast_downward_cost(
     raise BackendError(f"Fast Downward failed ({run.status.value}): {run.message}")
 
 
-def lifted_fast_downward_cost(domain_file: Path, problem_file: Path, *, time_limit: float = 60.0) -> int | None:
-    """Fast Downward's optimal cost for the original PDDL files, read and grounded by its own
-    translator (an independent check of hbtp's reading and grounding), found by blind A*, which
-    also works with the axioms the translator makes of some negated quantifiers and disjunctive
-    goals (LM-cut does not); ``None`` when it proves the
-    goal unsolvable. Raises :class:`~hbtp.errors.BackendError` as :func:`fast_downward_cost` does,
-    and when Fast Downward reports no cost."""
+@dataclass(frozen=True)
+class FilesRun:
+    """Fast Downward on the original PDDL files, read and grounded by its own translator (an
+    independent check of hbtp's reading and grounding): the status, the optimal cost it reports,
+    its translator's ground operators, the seconds, the search used and why it failed."""
+
+    status: RunStatus
+    cost: int | None = None
+    operators: int | None = None
+    time_s: float = 0.0
+    search: str = SEARCH
+    message: str = ""
+
+
+def run_fast_downward_files(domain_file: Path, problem_file: Path, *, time_limit: float = 60.0) -> FilesRun:
+    """Solve the files optimally with Fast Downward's driver: A* with LM-cut, or blind A* when the
+    translation has axioms, which LM-cut does not support (some negated quantifiers and disjunctive
+    goals become axioms)."""
     _require_extra()
-    domain_text = Path(domain_file).read_text(encoding="utf-8")
-    problem_text = Path(problem_file).read_text(encoding="utf-8")
+    started = time.perf_counter()
+    texts = Path(domain_file).read_text(encoding="utf-8"), Path(problem_file).read_text(encoding="utf-8")
     with tempfile.TemporaryDirectory(prefix="hbtp-fd-") as folder, contextlib.chdir(folder):
         copies = Path(folder, "domain.pddl"), Path(folder, "problem.pddl")
-        copies[0].write_text(domain_text, encoding="utf-8")
-        copies[1].write_text(problem_text, encoding="utf-8")
-        outcome = _solve_with_driver(*copies, time_limit, BLIND_SEARCH)
-    if outcome.status is RunStatus.UNSOLVABLE:
-        return None
-    if outcome.status is not RunStatus.OPTIMAL or outcome.reported_cost is None:
-        raise BackendError(f"Fast Downward failed ({outcome.status.value}): {outcome.message or 'no cost reported'}")
-    return outcome.reported_cost
+        for copy, text in zip(copies, texts, strict=True):
+            copy.write_text(text, encoding="utf-8")
+        search = SEARCH
+        outcome = _solve_with_driver(*copies, time_limit, search)
+        if outcome.status is RunStatus.ERROR and "support axioms" in outcome.message:
+            search = BLIND_SEARCH
+            left = time_limit - (time.perf_counter() - started)
+            outcome = _solve_with_driver(*copies, max(left, 1.0), search)
+    elapsed = time.perf_counter() - started
+    message = outcome.message
+    if outcome.status is RunStatus.OPTIMAL and outcome.reported_cost is None:
+        return FilesRun(RunStatus.ERROR, None, outcome.operators, elapsed, search, "Fast Downward reported no cost")
+    return FilesRun(outcome.status, outcome.reported_cost, outcome.operators, elapsed, search, message)
+
+
+def lifted_fast_downward_cost(domain_file: Path, problem_file: Path, *, time_limit: float = 60.0) -> int | None:
+    """:func:`run_fast_downward_files`'s optimal cost; ``None`` when it proves the goal unsolvable.
+    Raises :class:`~hbtp.errors.BackendError` as :func:`fast_downward_cost` does."""
+    run = run_fast_downward_files(domain_file, problem_file, time_limit=time_limit)
+    if run.status.decided:
+        return run.cost
+    raise BackendError(f"Fast Downward failed ({run.status.value}): {run.message}")
 
 
 def _replay(
@@ -288,14 +321,18 @@ def _solve_with_driver(domain_file: Path, problem_file: Path, time_limit: float,
 
 
 def _driver_outcome(code: int, plan_file: Path, output: str, errors: str) -> _Outcome:
+    found = _OPERATORS_LINE.search(output or "")
+    operators = int(found.group(1)) if found else None
     if code == 0 and plan_file.is_file():
-        return _read_plan_file(plan_file)
+        return _read_plan_file(plan_file)._replace(operators=operators)
     if code in _UNSOLVABLE_CODES:
-        return _Outcome(RunStatus.UNSOLVABLE)
+        return _Outcome(RunStatus.UNSOLVABLE, operators=operators)
     if code in _TIMEOUT_CODES:
-        return _Outcome(RunStatus.TIMEOUT, message=_REACHED_TIME_LIMIT)
+        return _Outcome(RunStatus.TIMEOUT, message=_REACHED_TIME_LIMIT, operators=operators)
     tail = " ".join((errors or output).split())[-500:]
-    return _Outcome(RunStatus.ERROR, message=f"Fast Downward's driver exited with code {code}: {tail}")
+    return _Outcome(
+        RunStatus.ERROR, message=f"Fast Downward's driver exited with code {code}: {tail}", operators=operators
+    )
 
 
 def _read_plan_file(plan_file: Path) -> _Outcome:
@@ -444,6 +481,49 @@ def compare_record(
     return row
 
 
+def compare_files(domain_file: Path, problem_file: Path, *, time_limit: float = COMPARE_TIME_LIMIT) -> dict[str, Any]:
+    """OBTEA (landmark heuristic, proved mutexes) on the problem's ``:goal`` as hbtp reads and
+    grounds the files, against Fast Downward on the same files (:func:`run_fast_downward_files`).
+
+    ``match`` is true when both decided with the same cost (``None`` for both when unsolvable) and
+    OBTEA's tree is verified and reaches the goal in the simulator; the row also has hbtp's ground
+    actions beside the translator's operators (``ground_ratio``)."""
+    started = time.perf_counter()
+    scenario = load_pddl_scenario(domain_file, problem_file, ScenarioOptions(name=Path(problem_file).stem))
+    scenario, goal = scenario.resolve_goal(scenario.problem_goal())
+    left = max(time_limit - (time.perf_counter() - started), 0.1)
+    result = plan(scenario.task, goal, "obtea", mutexes=scenario.mutexes.proved_only(), limits=Limits(time_s=left))
+    obtea_time = time.perf_counter() - started
+    tree_ok = result.solved and _tree_reaches(result, scenario.task, goal)
+    fd = run_fast_downward_files(domain_file, problem_file, time_limit=time_limit)
+    cost = result.cost if result.solved else None
+    decided_both = result.status in OBTEA_DECIDED and fd.status.decided
+    actions = len(scenario.task.actions)
+    return {
+        "instance": str(problem_file),
+        "goal": str(goal),
+        "grounded_actions": actions,
+        "obtea_status": result.status.value,
+        "obtea_cost": cost,
+        "obtea_time_s": round(obtea_time, 4),
+        "tree_verified": tree_ok,
+        "fd_status": fd.status.value,
+        "fd_cost": fd.cost,
+        "fd_operators": fd.operators,
+        "fd_time_s": round(fd.time_s, 4),
+        "fd_search": fd.search,
+        "ground_ratio": round(actions / fd.operators, 3) if fd.operators else None,
+        "match": decided_both and cost == fd.cost and (cost is None or tree_ok),
+        **({"fd_message": fd.message} if fd.message else {}),
+    }
+
+
+def _tree_reaches(result: PlanResult, task: GroundTask, goal: Goal) -> bool:
+    """Whether the full tree of ``result`` is verified from s0 and its run reaches the goal."""
+    tree = tree_of(result, "full")
+    return verify(tree, task, goal, from_initial_state=True).ok and simulate(tree, task).reached(goal)
+
+
 def iter_comparisons(
     scenario_name: str,
     dataset_name: str | None = None,
@@ -494,9 +574,11 @@ __all__ = [
     "OBTEA_DECIDED",
     "Engine",
     "FastDownwardRun",
+    "FilesRun",
     "ObteaRun",
     "RunStatus",
     "choose_engine",
+    "compare_files",
     "compare_optimal",
     "compare_record",
     "decided",
@@ -505,5 +587,6 @@ __all__ = [
     "iter_comparisons",
     "lifted_fast_downward_cost",
     "run_fast_downward",
+    "run_fast_downward_files",
     "run_obtea",
 ]

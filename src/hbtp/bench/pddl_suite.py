@@ -46,6 +46,10 @@ KEY = ("domain", "instance", "planner", "heuristic")
 REFERENCE_FILE = "fd_optimal_costs.json"
 #: Planners whose cost must equal the optimum (without hints HBTP-O searches as OBTEA does).
 OPTIMAL_PLANNERS = ("obtea", "hbtp-o")
+#: The pseudo-planner of ``--validate``: Fast Downward on the same files, in the same run.
+FAST_DOWNWARD = "fast-downward"
+#: The issue's bound on hbtp's ground actions over Fast Downward's translator's operators.
+GROUND_RATIO_TARGET = 1.5
 
 
 @dataclass(frozen=True)
@@ -133,20 +137,33 @@ def verified_tree(result: PlanResult, scenario: Any, goal: Any) -> bool:
     return check.ok and simulate(tree, scenario.task).reached(goal)
 
 
-def _fast_downward(run: PddlRun, scenario: Any, goal: Any) -> dict[str, Any]:
-    """Fast Downward's optimal cost of the instance, when asked and no reference cost is known."""
-    if not run.validate or run.reference is not None:
-        return {}
-    from hbtp.validation import run_fast_downward
+def fast_downward_row(run: PddlRun) -> dict[str, Any]:
+    """Fast Downward (A* + LM-cut, its driver) on the instance's files, read and grounded by its own
+    translator: a row of the pseudo-planner :data:`FAST_DOWNWARD`, its ``actions`` the translator's
+    operators. Its plan is Fast Downward's own (not replayed in hbtp's task), so ``verified`` is
+    whether it found one."""
+    from hbtp.validation import run_fast_downward_files
 
+    row = known(run)
     try:
-        fd = run_fast_downward(scenario.task, goal, time_limit=run.time_limit, engine="driver")
+        fd = run_fast_downward_files(run.instance.domain_file, run.instance.problem_file, time_limit=run.time_limit)
     except BackendError as error:
-        return {"fd_status": "error", "message": str(error)}
-    fields: dict[str, Any] = {"fd_status": fd.status.value, "fd_s": round(fd.time_s, 6)}
-    if fd.cost is not None:
-        fields.update(reference_cost=float(fd.cost), reference_source="fast-downward")
-    return fields
+        return {**row, "status": "error", "solved": False, "message": str(error)[:300], "time_s": 0.0}
+    solved = fd.cost is not None
+    return {
+        **row,
+        "status": "solved" if solved else fd.status.value,
+        "solved": solved,
+        "verified": solved,
+        "cost": float(fd.cost) if fd.cost is not None else None,
+        "actions": fd.operators,
+        "search": fd.search,
+        "load_s": 0.0,
+        "planning_s": round(fd.time_s, 6),
+        "time_s": round(fd.time_s, 6),
+        "mismatch": False,
+        **({"message": fd.message[:300]} if fd.message else {}),
+    }
 
 
 def mismatch(planner: str, cost: float | None, reference: float | None) -> bool:
@@ -158,7 +175,10 @@ def mismatch(planner: str, cost: float | None, reference: float | None) -> bool:
 
 
 def run_one(run: PddlRun) -> dict[str, Any]:
-    """Load (ground) the instance, plan for its :goal, verify the tree, compare with the reference."""
+    """Load (ground) the instance, plan for its :goal, verify the tree, compare with the reference
+    (the row of Fast Downward for :data:`FAST_DOWNWARD`)."""
+    if run.planner == FAST_DOWNWARD:
+        return fast_downward_row(run)
     row = known(run)
     started = time.perf_counter()
     try:
@@ -187,7 +207,6 @@ def run_one(run: PddlRun) -> dict[str, Any]:
     planning = time.perf_counter() - started
     verified = verified_tree(result, scenario, goal)
     release_search_memory()
-    row.update(_fast_downward(run, scenario, goal))
     cost = float(result.cost) if result.solved and result.cost is not None else None
     return {
         **row,
@@ -226,7 +245,7 @@ def run_pddl(folder: Path, config: PddlConfig, out: Path, execution: Execution =
     instances = discover(folder)
     references = read_references(folder)
     work = []
-    for planner in config.planners:
+    for planner in (*config.planners, *((FAST_DOWNWARD,) if config.validate else ())):
         for instance in instances:
             reference = references.get(instance.domain, {}).get(instance.name)
             spec = PddlRun(instance, planner, config.heuristic, config.time_limit, reference, config.validate)
@@ -255,19 +274,52 @@ def _planner_stats(rows: Sequence[dict[str, Any]], domains: Sequence[str]) -> di
         "median_time_s": median([r["time_s"] for r in good]),
         "median_load_s": median([r["load_s"] for r in good]),
         "median_planning_s": median([r["planning_s"] for r in good]),
-        "median_explored": median([r["explored"] for r in good]),
+        "median_explored": median([r["explored"] for r in good if r.get("explored") is not None]),
         "solve_times": sorted(r["time_s"] for r in good),
     }
 
 
+def with_fast_downward(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """``rows`` with Fast Downward's cost as the reference of the instances the reference file does
+    not cover, and each hbtp row's ground actions over the translator's operators (``ground_ratio``)."""
+    by_instance = {(r["domain"], r["instance"]): r for r in rows if r["planner"] == FAST_DOWNWARD}
+    out: list[dict[str, Any]] = []
+    for row in rows:
+        fd = by_instance.get((row["domain"], row["instance"]))
+        if row["planner"] == FAST_DOWNWARD or fd is None:
+            out.append(row)
+            continue
+        row = dict(row)
+        if row.get("reference_cost") is None and fd.get("cost") is not None:
+            row.update(reference_cost=fd["cost"], reference_source=FAST_DOWNWARD)
+            row["mismatch"] = mismatch(row["planner"], row.get("cost"), row["reference_cost"])
+        if row.get("actions") and fd.get("actions"):
+            row["ground_ratio"] = round(row["actions"] / fd["actions"], 3)
+        out.append(row)
+    return out
+
+
+def _grounding(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """hbtp's ground actions against the translator's operators, per instance (first planner's rows)."""
+    seen: dict[tuple[str, str], float] = {}
+    for row in rows:
+        if row.get("ground_ratio") is not None:
+            seen.setdefault((row["domain"], row["instance"]), row["ground_ratio"])
+    above = sorted(f"{d}/{i} {r:.2f}x" for (d, i), r in seen.items() if r > GROUND_RATIO_TARGET)
+    return {"instances": len(seen), "max_ratio": max(seen.values(), default=None), "above_target": above}
+
+
 def summarise(rows: Sequence[dict[str, Any]], config: PddlConfig, folder: Path) -> dict[str, Any]:
+    rows = with_fast_downward(rows)
     domains = list(dict.fromkeys(r["domain"] for r in rows))
     mismatches = [
         {k: r.get(k) for k in ("domain", "instance", "planner", "cost", "reference_cost", "reference_source")}
         for r in rows
         if r.get("mismatch")
     ]
-    compared = [r for r in rows if r.get("solved") and r.get("reference_cost") is not None]
+    compared = [
+        r for r in rows if r["planner"] != FAST_DOWNWARD and r.get("solved") and r.get("reference_cost") is not None
+    ]
     return {
         "config": {
             "folder": str(folder),
@@ -278,7 +330,11 @@ def summarise(rows: Sequence[dict[str, Any]], config: PddlConfig, folder: Path) 
         },
         "runs": len(rows),
         "domains": {d: sum(r["domain"] == d for r in rows) // max(1, len(config.planners)) for d in domains},
-        "planners": {p: _planner_stats([r for r in rows if r["planner"] == p], domains) for p in config.planners},
+        "planners": {
+            p: _planner_stats([r for r in rows if r["planner"] == p], domains)
+            for p in (*config.planners, *((FAST_DOWNWARD,) if config.validate else ()))
+        },
+        "grounding": _grounding(rows),
         "compared": len(compared),
         "mismatches": mismatches,
         "unverified": [
@@ -333,6 +389,15 @@ def pddl_section(summary: dict[str, Any], plotted: bool = True) -> str:
         if mismatches
         else f"No mismatch with the reference optimal costs ({summary['compared']} solved runs compared)."
     )
+    grounding = summary.get("grounding") or {}
+    if grounding.get("instances"):
+        above = grounding["above_target"]
+        parts.append(
+            f"Ground actions over Fast Downward's translator's operators on {grounding['instances']} instances: "
+            f"at most {grounding['max_ratio']:.2f}x; above {GROUND_RATIO_TARGET}x: "
+            + (", ".join(above) if above else "none")
+            + "."
+        )
     if summary["unverified"]:
         parts.append(f"**Solved but not verified**: {', '.join(summary['unverified'])}")
     if plotted:

@@ -13,7 +13,13 @@ from typing import Any
 
 log = logging.getLogger(__name__)
 
-PLANNER_LABELS = {"bte": "BT Expansion", "obtea": "OBTEA", "hbtp-o": "HBTP-O", "hbtp-s": "HBTP-S"}
+PLANNER_LABELS = {
+    "bte": "BT Expansion",
+    "obtea": "OBTEA",
+    "hbtp-o": "HBTP-O",
+    "hbtp-s": "HBTP-S",
+    "fast-downward": "Fast Downward (A* + LM-cut)",
+}
 HEURISTIC_LABELS = {"none": "no heuristic", "lm": "landmark heuristic (lm)", "hmax": "h_max heuristic"}
 #: Series on one panel get distinct markers (drawn smaller one after the other) and line styles, so
 #: that lines on top of each other all stay visible.

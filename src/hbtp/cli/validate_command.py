@@ -14,7 +14,7 @@ from hbtp.cli.options import echo_json
 from hbtp.datasets import DATASET_SCENARIO
 from hbtp.domains import scenario_names
 from hbtp.errors import InputError
-from hbtp.validation import COMPARE_TIME_LIMIT, ENGINES, Engine, decided, iter_comparisons
+from hbtp.validation import COMPARE_TIME_LIMIT, ENGINES, Engine, compare_files, decided, iter_comparisons
 
 
 def _plan_runs(scenarios: tuple[str, ...], dataset: str | None) -> list[tuple[str, str | None]]:
@@ -112,6 +112,15 @@ def _rows(
     show_default=True,
     help="Run Fast Downward through unified-planning, its driver directly, or auto (the driver for big tasks).",
 )
+@click.option(
+    "--pddl",
+    "pddl_files",
+    nargs=2,
+    multiple=True,
+    type=click.Path(exists=True, dir_okay=False),
+    metavar="DOMAIN PROBLEM",
+    help="Check the problem's :goal in these PDDL files instead (repeatable): Fast Downward reads the files itself.",
+)
 @click.option("-o", "--out", "out_file", type=click.Path(dir_okay=False), help="Write the rows as JSONL.")
 @click.option("--json", "as_json", is_flag=True, help="Print rows and summary as one JSON document.")
 def validate_optimal(
@@ -120,6 +129,7 @@ def validate_optimal(
     time_limit: float,
     limit: int | None,
     engine: str,
+    pddl_files: tuple[tuple[str, str], ...],
     out_file: str | None,
     as_json: bool,
 ) -> int:
@@ -127,8 +137,15 @@ def validate_optimal(
 
     Needs the validate extra (pip install -e '.[validate]'). OBTEA runs with the scenario's mutexes
     and without: the cost without must equal Fast Downward's exactly; records whose optimum the
-    declared mutexes change are listed. Exit code 1 when some record does not match.
+    declared mutexes change are listed. With --pddl, each problem's :goal is planned from the files
+    as hbtp reads them and Fast Downward solves the same files with its own translator; the tree
+    must also be verified, and hbtp's ground actions are shown beside the translator's operators.
+    Exit code 1 when some record does not match.
     """
+    if pddl_files:
+        if scenarios or dataset:
+            raise InputError("--pddl checks files: give it without --scenario and --dataset")
+        return _validate_files(pddl_files, time_limit, out_file, as_json)
     runs = _plan_runs(scenarios, dataset)
     rows: list[dict[str, Any]] = []
     with ExitStack() as stack:
@@ -151,6 +168,41 @@ def validate_optimal(
         if len(runs) > 1:
             click.echo(_summary_line("all", summary))
     return 0 if summary["mismatches"] == 0 else 1
+
+
+def _file_line(row: dict[str, Any]) -> str:
+    """``p01.pddl  OBTEA 11 (0.02 s)  FD 11 (0.31 s)  match  ground 34 / FD 34 (1.00x)``."""
+    verdict = "match" if row["match"] else "MISMATCH"
+    ratio = f"{row['ground_ratio']:.2f}x" if row["ground_ratio"] is not None else "-"
+    return (
+        f"{row['instance']}  OBTEA {_cost(row['obtea_cost'], row['obtea_status'])} ({row['obtea_time_s']:.2f} s"
+        f"{', tree verified' if row['tree_verified'] else ''})  FD {_cost(row['fd_cost'], row['fd_status'])} "
+        f"({row['fd_time_s']:.2f} s)  {verdict}  ground actions {row['grounded_actions']} / "
+        f"FD operators {row['fd_operators'] if row['fd_operators'] is not None else '-'} ({ratio})"
+        + (f"\n    {row['fd_message']}" if "fd_message" in row and not row["match"] else "")
+    )
+
+
+def _validate_files(
+    pddl_files: tuple[tuple[str, str], ...], time_limit: float, out_file: str | None, as_json: bool
+) -> int:
+    rows: list[dict[str, Any]] = []
+    with ExitStack() as stack:
+        out = stack.enter_context(_open_out(Path(out_file))) if out_file else None
+        for domain, problem in pddl_files:
+            row = compare_files(Path(domain), Path(problem), time_limit=time_limit)
+            rows.append(row)
+            if out is not None:
+                out.write(json.dumps(row, ensure_ascii=False) + "\n")
+                out.flush()
+            if not as_json:
+                click.echo(_file_line(row))
+    mismatches = sum(not row["match"] for row in rows)
+    if as_json:
+        echo_json({"summary": {"instances": len(rows), "mismatches": mismatches}, "rows": rows})
+    else:
+        click.echo(f"{len(rows)} instance(s), {len(rows) - mismatches} match(es), {mismatches} mismatch(es)")
+    return 0 if mismatches == 0 else 1
 
 
 __all__ = ["summarize", "validate_optimal"]
