@@ -382,3 +382,18 @@ def test_costs_beyond_the_maximum_or_negative_costs_from_functions_are_refused()
         _ground(domain, _problem("a", "(= (price a) 400001)", "costly"))
     with pytest.raises(GroundingError, match=r"cost \(price a\) is -600001, and action costs must not be negative"):
         _ground(domain, _problem("a", "(= (price a) -600001)", "costly"))
+
+
+def test_an_add_effect_the_precondition_requires_is_dropped_and_an_action_that_changes_nothing_too() -> None:
+    domain = (
+        "(define (domain d) (:predicates (free ?r) (sent ?x) (seen ?x))"
+        " (:action send :parameters (?r ?x) :precondition (and (free ?r) (seen ?x))"
+        "  :effect (and (not (free ?r)) (free ?r) (sent ?x)))"
+        " (:action look :parameters (?x) :precondition (seen ?x) :effect (seen ?x)))"
+    )
+    task = _ground(domain, _problem("r a", "(free r) (seen a)"))
+    assert _names(task, "look") == []  # look only re-adds what it needs: it changes nothing
+    assert "send(r,a)" in _names(task, "send")
+    pre, add, delete, _cost = _action(task, "send(r,a)")
+    assert (pre, add, delete) == (["free(r)", "seen(a)"], ["sent(a)"], [])
+    assert task.action("send(r,a)").progress(task.initial_state) == task.initial_state | task.action("send(r,a)").add

@@ -222,3 +222,15 @@ def test_derived_tables_are_built_once_per_task_and_not_pickled(kitchen: GroundT
     kitchen.forget_derived()
     assert kitchen.derived(build, build) == first
     assert len(builds) == 2
+
+
+def test_relevant_actions_follow_achievers_back_from_the_goal() -> None:
+    from hbtp.domains import DomainBuilder
+
+    builder = DomainBuilder("relevance")
+    builder.action("Fetch(cup)", pre=["At(home)"], add=["Has(cup)"])
+    builder.action("Go(home)", add=["At(home)"])
+    builder.action("Sing(song)", pre=["At(home)"], add=["Sung(song)"])
+    task = builder.build()
+    relevant = task.relevant_actions(task.resolve_goal("Has(cup)"))
+    assert sorted(task.actions[i].name for i in relevant) == ["Fetch(cup)", "Go(home)"]

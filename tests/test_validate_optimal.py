@@ -233,6 +233,7 @@ def test_validate_optimal_on_pddl_files_uses_fast_downwards_own_translator(tmp_p
         assert row["obtea_cost"] == row["fd_cost"] is not None
         assert row["fd_operators"] > 0
         assert row["ground_ratio"] == round(row["grounded_actions"] / row["fd_operators"], 3)
+        assert row["relevant_actions"] <= row["grounded_actions"]
 
 
 def test_pddl_files_go_without_scenarios(tmp_path: Path) -> None:

@@ -486,8 +486,9 @@ def compare_files(domain_file: Path, problem_file: Path, *, time_limit: float = 
     grounds the files, against Fast Downward on the same files (:func:`run_fast_downward_files`).
 
     ``match`` is true when both decided with the same cost (``None`` for both when unsolvable) and
-    OBTEA's tree is verified and reaches the goal in the simulator; the row also has hbtp's ground
-    actions beside the translator's operators (``ground_ratio``)."""
+    OBTEA's tree is verified and reaches the goal in the simulator. The row also has hbtp's ground
+    actions (for any goal) and those relevant to this goal beside the translator's operators, which
+    it keeps for this goal only (``ground_ratio``, ``relevant_ratio``)."""
     started = time.perf_counter()
     scenario = load_pddl_scenario(domain_file, problem_file, ScenarioOptions(name=Path(problem_file).stem))
     scenario, goal = scenario.resolve_goal(scenario.problem_goal())
@@ -499,6 +500,7 @@ def compare_files(domain_file: Path, problem_file: Path, *, time_limit: float = 
     cost = result.cost if result.solved else None
     decided_both = result.status in OBTEA_DECIDED and fd.status.decided
     actions = len(scenario.task.actions)
+    relevant = len(scenario.task.relevant_actions(goal))
     return {
         "instance": str(problem_file),
         "goal": str(goal),
@@ -512,7 +514,9 @@ def compare_files(domain_file: Path, problem_file: Path, *, time_limit: float = 
         "fd_operators": fd.operators,
         "fd_time_s": round(fd.time_s, 4),
         "fd_search": fd.search,
+        "relevant_actions": relevant,
         "ground_ratio": round(actions / fd.operators, 3) if fd.operators else None,
+        "relevant_ratio": round(relevant / fd.operators, 3) if fd.operators else None,
         "match": decided_both and cost == fd.cost and (cost is None or tree_ok),
         **({"fd_message": fd.message} if fd.message else {}),
     }

@@ -489,11 +489,16 @@ class _Grounder:
         counting = self.only is not None
         names = self._alternative_names(schema)
         for key, alternatives, add, delete, cost in self.build(schema, costs_only=False):
+            deletes = frozenset(delete - add)  # delete, then add: what is added stays
             for number, pre in enumerate(alternatives):
+                needs = frozenset(pre)
+                adds = frozenset(add) - needs  # adding what the precondition requires changes nothing
+                if not adds and not deletes:
+                    continue  # an action that changes nothing (Fast Downward drops it too)
                 if counting:
                     self._count_kept(schema, key)
                 name = names[number] if number < len(names) else alternative_name(schema.name, number)
-                yield Atom(name, key), frozenset(pre), frozenset(add), frozenset(delete - add), cost
+                yield Atom(name, key), needs, adds, deletes, cost
 
     def _alternative_names(self, schema: ActionSchema) -> tuple[str, ...]:
         """The names of the schema's first ground actions per binding, checked against the declared

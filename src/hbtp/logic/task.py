@@ -184,6 +184,25 @@ class GroundTask:
                 table[atom].append(action.index)
         return tuple(tuple(ids) for ids in table)
 
+    def relevant_actions(self, goal: Goal) -> frozenset[int]:
+        """The indices of the actions that can take part in reaching ``goal``: the achievers of its
+        literals, then of their preconditions' literals, and so on (backward relevance, the
+        operators Fast Downward's translator keeps as "necessary")."""
+        seen: set[int] = set()
+        found: set[int] = set()
+        pending = [atom for disjunct in goal.disjuncts for atom in disjunct]
+        achievers = self.achievers
+        while pending:
+            atom = pending.pop()
+            if atom in seen:
+                continue
+            seen.add(atom)
+            for index in achievers[atom]:
+                if index not in found:
+                    found.add(index)
+                    pending.extend(self.actions[index].pre)
+        return frozenset(found)
+
     @cached_property
     def symbols(self) -> frozenset[str]:
         return frozenset(self.objects) | frozenset(self.constants)
