@@ -12,6 +12,7 @@ from hbtp.bt import Action, Condition, Fallback, Node, Sequence, tree_of
 from hbtp.bt.jsonio import tree_to_json
 from hbtp.cli.robustness_command import robustness
 from hbtp.cli.run_command import run_command, verify_command
+from hbtp.cli.view_command import view_command
 from hbtp.domains import Scenario
 from hbtp.planning import plan
 
@@ -171,3 +172,55 @@ def test_bench_robustness(tmp_path: Path) -> None:
     assert len((out / "results.jsonl").read_text(encoding="utf-8").splitlines()) == 8
     assert CliRunner().invoke(robustness, ["-o", str(out), "--scenarios", "mars"]).exit_code == 2
     assert CliRunner().invoke(robustness, ["-o", str(out), "--p", "0.1,7"]).exit_code == 2
+
+
+@pytest.fixture(scope="module")
+def path_tree(robothow_small: Scenario) -> Node:
+    return tree_of(plan(robothow_small.task, GOAL, "obtea", mutexes=robothow_small.mutexes, heuristic="lm"), "path")
+
+
+@pytest.mark.parametrize("engine", ["pytrees", "btcpp"])
+def test_run_with_another_engine_replans_like_hbtp(
+    tmp_path: Path, path_tree: Node, robothow_small: Scenario, engine: str
+) -> None:
+    """``hbtp run --engine pytrees --replan 3 --perturb 0.2 --runs 5``: the same runs and re-plans as
+    hbtp's engine, and a trace with a line for each tree a re-plan swapped in."""
+    pytest.importorskip("py_trees.parsers.behaviour_tree_xml" if engine == "pytrees" else "behaviortreepy")
+    file = _write(tmp_path / "tree.json", path_tree, robothow_small)
+    args = [file, "--replan", "3", "--perturb", "0.2", "--runs", "5", "--json"]
+    ours = json.loads(CliRunner().invoke(run_command, args).output)
+    trace = tmp_path / "trace.jsonl"
+    result = CliRunner().invoke(run_command, [*args, "--engine", engine, "--trace", str(trace)])
+    assert result.exit_code == 0, result.output
+    theirs = json.loads(result.output)
+    assert (ours["engine"], theirs["engine"]) == ("hbtp", engine)
+    assert theirs["successes"] == 5
+    assert theirs["replans"] == ours["replans"] == 1  # seed 0: one run needs a new tree
+    strip = [{k: v for k, v in row.items() if k != "replans"} for row in ours["results"]]
+    assert [{k: v for k, v in row.items() if k != "replans"} for row in theirs["results"]] == strip
+    lines = [json.loads(line) for line in trace.read_text(encoding="utf-8").splitlines()]
+    (position,) = [i for i, line in enumerate(lines) if "replan" in line]
+    replan, after = lines[position], lines[position + 1]
+    assert replan["run"] == after["run"]
+    assert replan["replan"]["tick"] == after["tick"]
+    assert replan["replan"]["tree"]["type"] == "Fallback"
+    view = CliRunner().invoke(view_command, [file, "--trace", str(trace), "-o", str(tmp_path / "view.html")])
+    assert view.exit_code == 0, view.output  # hbtp view checks every tick against the tree in use
+    text = CliRunner().invoke(run_command, [*args[:-1], "--engine", engine])
+    assert text.output.splitlines()[0] == ("py_trees:" if engine == "pytrees" else "BehaviorTree.CPP:")
+    assert "re-plans: 1 in all" in text.output
+
+
+def test_run_with_py_trees_and_a_trace(tmp_path: Path, planned: Node, robothow_small: Scenario) -> None:
+    pytest.importorskip("py_trees.parsers.behaviour_tree_xml")
+    file = _write(tmp_path / "tree.json", planned, robothow_small)
+    trace = tmp_path / "trace.jsonl"
+    result = CliRunner().invoke(run_command, [file, "--engine", "pytrees", "--trace", str(trace)])
+    assert result.exit_code == 0, result.output
+    assert result.output.startswith("py_trees: goal reached: 8 tick(s), cost 59, 7 action(s)")
+    ours = CliRunner().invoke(run_command, [file, "--trace", str(tmp_path / "ours.jsonl")])
+    assert ours.exit_code == 0
+    assert trace.read_text(encoding="utf-8") == (tmp_path / "ours.jsonl").read_text(encoding="utf-8")
+    watched = CliRunner().invoke(run_command, [file, "--engine", "pytrees", "--btlog", str(tmp_path / "x.btlog")])
+    assert watched.exit_code == 2
+    assert "give --engine btcpp" in watched.output

@@ -14,16 +14,35 @@ from tests.helpers import kitchen_builder
 
 from hbtp.bt import tree_of
 from hbtp.bt.disturb import RandomDisturbance, event_model, run_seed
+from hbtp.bt.engines import Engine
+from hbtp.bt.jsonio import node_from_dict
 from hbtp.bt.simulate import simulate
 from hbtp.cli import EXIT_OK, main
 from hbtp.datasets import load_dataset
 from hbtp.domains.mutex import infer_mutexes
-from hbtp.domains.scenarios import Scenario
+from hbtp.domains.scenarios import Scenario, ScenarioOptions, load_pddl_scenario
 from hbtp.errors import InputError
 from hbtp.logic.execution import Event, NodeStatus
 from hbtp.logic.task import GroundTask, State
 from hbtp.planning import plan
-from hbtp.runtime import UNSOLVABLE_FROM_STATE, ReplanOptions, Runtime, RuntimeFailure, run_replanning
+from hbtp.runtime import (
+    UNSOLVABLE_FROM_STATE,
+    ReplanOptions,
+    Runtime,
+    RuntimeFailure,
+    replanning_trace_jsonl,
+    run_replanning,
+)
+
+
+@pytest.fixture(params=list(Engine), ids=lambda engine: engine.value)
+def engine(request: pytest.FixtureRequest) -> Engine:
+    """Each engine in turn (skipped when its library is not installed)."""
+    if request.param is Engine.PY_TREES:
+        pytest.importorskip("py_trees.parsers.behaviour_tree_xml", reason="py_trees >= 2.6 (its XML reader)")
+    elif request.param is Engine.BTCPP:
+        pytest.importorskip("behaviortreepy")
+    return Engine(request.param)
 
 
 def _scenario(task: GroundTask) -> Scenario:
@@ -152,10 +171,13 @@ def _two_hands() -> GroundTask:
     )
 
 
-def test_runtime_drives_a_robot_to_the_goal_and_routes_around_a_broken_action() -> None:
+def test_runtime_drives_a_robot_to_the_goal_and_routes_around_a_broken_action(engine: Engine) -> None:
     task = _two_hands()
     robot = ToyRobot(task, broken=frozenset({"Grab(milk)"}))
-    runtime = Runtime(_scenario(task), "IsIn(milk,fridge)", robot.callbacks(), robot.observe, max_failures=2)
+    runtime = Runtime(
+        _scenario(task), "IsIn(milk,fridge)", robot.callbacks(), robot.observe, max_failures=2,
+        options=ReplanOptions(engine=engine),
+    )  # fmt: skip
     report = runtime.run(max_ticks=50)
     assert report.succeeded, report.reason
     assert task.atom_id("IsIn(milk,fridge)") in robot.state
@@ -178,30 +200,39 @@ def test_runtime_takes_implementations_per_predicate() -> None:
     assert report.called == ["Walk(fridge)", "Open(fridge)", "PutIn(milk,fridge)"]
 
 
-def test_runtime_counts_a_raising_or_garbage_callback_as_a_failure() -> None:
+def test_runtime_counts_a_raising_or_garbage_callback_as_a_failure(engine: Engine) -> None:
     task = kitchen_builder().build()
     robot = ToyRobot(task)
     callbacks = robot.callbacks()
+    options = ReplanOptions(engine=engine)
 
     def explode() -> str:
         raise RuntimeError("motor stalled")
 
     callbacks["Open(fridge)"] = explode
-    report = Runtime(_scenario(task), "IsIn(milk,fridge)", callbacks, robot.observe, max_failures=2).run(20)
-    assert not report.succeeded
-    assert report.failures == 2
-    assert report.reason.startswith(UNSOLVABLE_FROM_STATE)  # no other way to open the fridge
+    report = Runtime(_scenario(task), "IsIn(milk,fridge)", callbacks, robot.observe, max_failures=2, options=options)
+    result = report.run(20)
+    assert not result.succeeded
+    assert result.failures == 2
+    assert result.called == ["Walk(fridge)", "Open(fridge)", "Open(fridge)"]
+    assert result.reason.startswith(UNSOLVABLE_FROM_STATE)  # no other way to open the fridge
     callbacks["Open(fridge)"] = lambda: 42
-    assert not Runtime(_scenario(task), "IsIn(milk,fridge)", callbacks, robot.observe, max_failures=1).run(20).succeeded
+    garbage = Runtime(_scenario(task), "IsIn(milk,fridge)", callbacks, robot.observe, max_failures=1, options=options)
+    result = garbage.run(20)
+    assert not result.succeeded
+    assert result.failures == 1
 
 
-def test_runtime_stops_a_hanging_callback_and_a_lying_observer() -> None:
+def test_runtime_stops_a_hanging_callback_and_a_lying_observer(engine: Engine) -> None:
     task = kitchen_builder().build()
     robot = ToyRobot(task)
     release = threading.Event()
     callbacks = robot.callbacks()
     callbacks["Walk(fridge)"] = lambda: release.wait(10) and "success"
-    runtime = Runtime(_scenario(task), "IsIn(milk,fridge)", callbacks, robot.observe, tick_timeout_s=0.2)
+    runtime = Runtime(
+        _scenario(task), "IsIn(milk,fridge)", callbacks, robot.observe, tick_timeout_s=0.2,
+        options=ReplanOptions(engine=engine),
+    )  # fmt: skip
     with pytest.raises(RuntimeFailure, match=r"Walk\(fridge\) did not return within 0.2 s"):
         runtime.run()
     release.set()
@@ -210,6 +241,58 @@ def test_runtime_stops_a_hanging_callback_and_a_lying_observer() -> None:
         lying.run()
     with pytest.raises(InputError, match="Teleport"):
         Runtime(_scenario(task), "IsIn(milk,fridge)", {"Teleport(milk)": lambda: "success"}, robot.observe)
+
+
+def test_a_replanning_trace_shows_each_new_tree_before_the_first_tick_that_uses_it(robothow_small: Scenario) -> None:
+    task = robothow_small.task
+    goal = task.resolve_goal("IsIn_apple_fridge & IsClose_fridge")
+    tree = tree_of(plan(task, goal, "obtea", mutexes=robothow_small.mutexes, heuristic="lm"), "path")
+    model = event_model(task, robothow_small.mutexes)
+    for index in range(20):
+        disturbance = RandomDisturbance(model, 0.5, random.Random(index))
+        result = run_replanning(robothow_small, goal, tree, max_ticks=200, disturbance=disturbance, trace=True)
+        if any(replan.tree is not None for replan in result.replans):
+            break
+    else:
+        pytest.fail("no re-plan in 20 disturbed runs")
+    lines = [json.loads(line) for line in replanning_trace_jsonl(result, task).splitlines()]
+    assert all("run" not in line for line in lines)
+    assert all(replan.tree is not None for replan in result.replans)
+    found = [(i, line["replan"]) for i, line in enumerate(lines) if "replan" in line]
+    assert len(found) == len(result.replans)
+    for (position, record), replan in zip(found, result.replans, strict=True):
+        assert set(record) == {"tick", "reason", "seconds", "status", "cost", "tree"}
+        assert lines[position + 1]["tick"] == record["tick"] == replan.tick  # the first tick with the new tree
+        assert (record["reason"], record["status"], record["cost"]) == (replan.reason, "solved", replan.cost)
+        assert node_from_dict(record["tree"], task) == replan.tree
+    assert [line["tick"] for line in lines if "tick" in line and "replan" not in line] == list(
+        range(1, result.run.ticks + 1)
+    )
+    assert lines[-1]["end"] == result.run.status.value
+    numbered = [json.loads(line) for line in replanning_trace_jsonl(result, task, run_index=4).splitlines()]
+    assert all(line.pop("run") == 4 for line in numbered)
+    assert numbered == lines
+    assert "tree" not in result.replans[0].to_dict()  # the rows of --json carry no tree
+
+
+def test_a_run_that_gives_up_says_why_at_the_end_of_its_trace() -> None:
+    task = kitchen_builder().build()
+    scenario = _scenario(task)
+    goal = task.resolve_goal("IsIn(milk,fridge)")
+    tree = tree_of(plan(task, goal, "obtea"), "full")
+    holding = task.atom_id("IsHolding(self,milk)")
+
+    def drop_the_milk(tick: int, state: State, last: int | None, before: State | None) -> Event | None:
+        return Event("make-false", frozenset(), frozenset({holding})) if tick == 2 and holding in state else None
+
+    run = run_replanning(scenario, goal, tree, max_ticks=100, disturbance=drop_the_milk, trace=True)
+    lines = [json.loads(line) for line in replanning_trace_jsonl(run, task, run_index=0).splitlines()]
+    assert [line["tick"] for line in lines[:-1] if "replan" not in line] == [1, 2]
+    assert lines[1]["replan"]["status"] == "unsolvable"  # before tick 2, where the tree failed
+    assert "tree" not in lines[1]["replan"]  # no tree to swap in
+    assert (lines[2]["tick"], lines[2]["status"]) == (2, "failure")
+    assert lines[-1]["end"] == "failure"
+    assert lines[-1]["gave_up"].startswith(UNSOLVABLE_FROM_STATE)
 
 
 def test_robustness_benchmark_with_replanning(tmp_path: Path) -> None:
@@ -246,3 +329,30 @@ def test_the_documented_toy_robot_example_runs() -> None:
     assert done.stdout.startswith("success after")
     assert "LeftGrab(apple)" in done.stdout
     assert "RightGrab(apple) failed 2 times in a row" in done.stdout
+
+
+def test_the_alternatives_of_a_disjunctive_precondition_share_their_actions_implementation(tmp_path: Path) -> None:
+    (tmp_path / "d.pddl").write_text(
+        "(define (domain d) (:requirements :adl) (:predicates (road ?a ?b) (rail ?a ?b) (at ?a))"
+        " (:action go :parameters (?a ?b) :precondition (and (at ?a) (or (road ?a ?b) (rail ?a ?b)))"
+        " :effect (and (at ?b) (not (at ?a))))"
+        " (:action pave :parameters (?a ?b) :precondition (rail ?a ?b) :effect (and (road ?a ?b) (not (rail ?a ?b)))))",
+        encoding="utf-8",
+    )
+    (tmp_path / "p.pddl").write_text(
+        "(define (problem p) (:domain d) (:objects x y) (:init (at x) (rail x y)) (:goal (at y)))", encoding="utf-8"
+    )
+    scenario = load_pddl_scenario(tmp_path / "d.pddl", tmp_path / "p.pddl", ScenarioOptions(name="d"))
+    world = {"at(x)", "rail(x,y)"}
+    calls: list[tuple[str, ...]] = []
+
+    def go(a: str, b: str) -> str:
+        calls.append((a, b))
+        world.discard(f"at({a})")
+        world.add(f"at({b})")
+        return "success"
+
+    report = Runtime(scenario, "at(y)", {"go": go}, lambda: sorted(world)).run(max_ticks=10)
+    assert report.succeeded
+    assert calls == [("x", "y")]
+    assert report.called == ["go-alt2(x,y)"]  # rail is the second alternative as written

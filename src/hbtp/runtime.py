@@ -7,7 +7,9 @@ tree and, when it fails, plans again from the state it is ticked in (LLM-free: O
 landmark heuristic by default), swaps the new tree in and ticks that. It is bounded: at most
 ``max_replans`` re-plans and ``budget_s`` seconds of re-planning per run; then, or when the goal is
 unsolvable from the observed state, the policy fails for good with the reason in
-:attr:`Replanner.gave_up`.
+:attr:`Replanner.gave_up`. The tree is ticked by the engine of :attr:`ReplanOptions.engine`
+(:class:`hbtp.bt.engines.Engine`: hbtp's own, py_trees through its BT.CPP-XML reader, or
+BehaviorTree.CPP); a re-plan builds the new tree in that engine.
 
 Two ways to run it:
 
@@ -27,6 +29,7 @@ breaks an invariant, which no action can cause, is planned from without mutex pr
 from __future__ import annotations
 
 import dataclasses
+import json
 import logging
 import statistics
 import threading
@@ -37,11 +40,13 @@ from typing import Any
 
 from hbtp.bt.build import tree_of
 from hbtp.bt.disturb import seeded_disturbances, summarise_runs
-from hbtp.bt.nodes import Fallback, Node
-from hbtp.bt.simulate import DEFAULT_MAX_TICKS, compile_tree, simulate
+from hbtp.bt.engines import Engine
+from hbtp.bt.jsonio import node_to_dict
+from hbtp.bt.nodes import Node
+from hbtp.bt.simulate import DEFAULT_MAX_TICKS, simulate, trace_to_jsonl
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import HbtpError, InputError
-from hbtp.logic.atoms import parse_atom
+from hbtp.logic.atoms import declared_action, parse_atom
 from hbtp.logic.execution import Disturbance, NodeStatus, Policy, Run, Trace, TraceStep, execute
 from hbtp.logic.task import Goal, GoalIds, GroundAction, GroundTask, State
 from hbtp.planning.heuristics import HeuristicName
@@ -61,6 +66,7 @@ __all__ = [
     "replanning_runs",
     "replanning_stats",
     "replanning_summary",
+    "replanning_trace_jsonl",
     "run_replanning",
 ]
 
@@ -75,7 +81,8 @@ class RuntimeFailure(HbtpError):
 
 @dataclass(frozen=True)
 class ReplanOptions:
-    """How to re-plan: the planner and heuristic, the kind of tree, and the bounds of one run."""
+    """How to re-plan: the planner and heuristic, the kind of tree, the bounds of one run, and the
+    engine that ticks the trees."""
 
     max_replans: int = 10
     #: Seconds of re-planning in one run, all re-plans together.
@@ -83,8 +90,12 @@ class ReplanOptions:
     planner: str = "obtea"
     heuristic: HeuristicName = "lm"
     tree: str = "full"
+    engine: Engine = Engine.HBTP
 
     def __post_init__(self) -> None:
+        if not isinstance(self.engine, Engine):
+            raise InputError(f"the engine must be an Engine ({', '.join(e.name for e in Engine)}), not {self.engine!r}")
+        self.engine.require()
         if self.max_replans < 0:
             raise InputError(f"max_replans must not be negative, not {self.max_replans}")
         if not self.budget_s > 0:
@@ -96,7 +107,8 @@ class ReplanOptions:
 
 @dataclass(frozen=True)
 class Replan:
-    """One re-plan: at which tick, why, how long it took and what it found."""
+    """One re-plan: at which tick, why, how long it took and what it found (``tree``: the tree
+    swapped in, ``None`` when the re-plan found none)."""
 
     tick: int
     reason: str
@@ -104,21 +116,40 @@ class Replan:
     status: str
     cost: int | None = None
     message: str = ""
+    tree: Node | None = field(default=None, compare=False, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
+        """The re-plan without its tree (:meth:`trace_record` has it)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "tree"}
+
+    def trace_record(self, task: GroundTask) -> dict[str, Any]:
+        """The re-plan as a trace line has it: tick, reason, seconds, status, cost and the new tree's
+        root in the shape of the ``root`` of an hbtp tree file (:func:`hbtp.bt.jsonio.node_to_dict`);
+        a re-plan that found no tree has its ``message`` instead."""
+        record: dict[str, Any] = {
+            "tick": self.tick, "reason": self.reason, "seconds": self.seconds, "status": self.status,
+            "cost": self.cost,
+        }  # fmt: skip
+        if self.tree is not None:
+            record["tree"] = node_to_dict(self.tree, task)
+        elif self.message:
+            record["message"] = self.message
+        return record
 
 
 class Replanner:
     """A policy: the current tree's tick, or a new tree planned from the state when it fails."""
 
-    def __init__(self, scenario: Scenario, goal: Goal, tree: Node, options: ReplanOptions = ReplanOptions()) -> None:
+    def __init__(
+        self, scenario: Scenario, goal: Goal, tree: Node | None, options: ReplanOptions = ReplanOptions()
+    ) -> None:
         self.task = scenario.task
         self.mutexes = scenario.mutexes.proved_only()
         self.goal = goal
         self.options = options
-        self.policy: Policy = compile_tree(tree, self.task)
+        #: The current tree, ticked by ``options.engine`` (``None``: no tree yet, the first tick re-plans).
         self.tree = tree
+        self.policy: Policy = _no_tree if tree is None else options.engine.policy(tree, self.task)
         self.replans: list[Replan] = []
         self.spent = 0.0
         self.ticks = 0
@@ -151,17 +182,18 @@ class Replanner:
         result = self._plan(state, left)
         seconds = time.perf_counter() - started
         self.spent += seconds
-        self.replans.append(
-            Replan(self.ticks, reason, round(seconds, 6), result.status.value, result.cost, result.message)
-        )
         log.info("tick %d: re-planned (%s) in %.1f ms: %s", self.ticks, reason, seconds * 1000, result.status.value)
+        tree = tree_of(result, options.tree) if result.solved else None
+        self.replans.append(
+            Replan(self.ticks, reason, round(seconds, 6), result.status.value, result.cost, result.message, tree)
+        )
         if result.status is Status.UNSOLVABLE:
             self.unsolvable = True
             return self._give_up(f"{UNSOLVABLE_FROM_STATE}: {result.message}")
-        if not result.solved:
+        if tree is None:
             return self._give_up(f"re-planning found no tree ({result.status.value}: {result.message})")
-        self.tree = tree_of(result, options.tree)
-        self.policy = compile_tree(self.tree, self.task)
+        self.tree = tree
+        self.policy = options.engine.policy(tree, self.task)
         return True
 
     def _plan(self, state: State, seconds: float) -> PlanResult:
@@ -196,6 +228,30 @@ class ReplanningRun:
 
     def reached(self, goal: GoalIds) -> bool:
         return self.run.reached(goal)
+
+
+def replanning_trace_jsonl(result: ReplanningRun, task: GroundTask, *, run_index: int | None = None) -> str:
+    """The run's trace as JSON lines (:func:`hbtp.bt.simulate.trace_to_jsonl`: one line per tick,
+    then the ``end`` line), with a line ``{"replan": {...}}`` (:meth:`Replan.trace_record`) before
+    the tick of each re-plan, which is the first tick that uses the tree it found (a re-plan that
+    found none has no ``tree``), and the reason the run gave up (``"gave_up"``), if it did, in the
+    ``end`` line. ``run_index`` adds ``"run"`` to every line."""
+    lines = trace_to_jsonl(result.run, task, run_index=run_index).splitlines()
+    extra = {} if run_index is None else {"run": run_index}
+    replans: dict[int, list[str]] = {}
+    for replan in result.replans:
+        line = json.dumps({**extra, "replan": replan.trace_record(task)}, ensure_ascii=False)
+        replans.setdefault(replan.tick, []).append(line)
+    out: list[str] = []
+    for step, line in zip(result.run.trace, lines, strict=False):
+        out += replans.pop(step.tick, [])
+        out.append(line)
+    out += [line for later in replans.values() for line in later]  # after the last traced tick
+    end = json.loads(lines[-1])
+    if result.gave_up is not None:
+        end["gave_up"] = result.gave_up
+    out.append(json.dumps(end, ensure_ascii=False))
+    return "\n".join(out) + "\n"
 
 
 def run_replanning(
@@ -296,7 +352,7 @@ class Runtime:
     def run(self, max_ticks: int = 1000) -> RuntimeReport:
         """Tick until the goal holds, the tree fails for good, or ``max_ticks`` ticks."""
         state = self._observed()
-        replanner = Replanner(self.scenario, self.goal, self.tree or _empty_tree(), self.options)
+        replanner = Replanner(self.scenario, self.goal, self.tree, self.options)
         if self.tree is None and not replanner.replan(state, "the first plan, from the observed state"):
             return RuntimeReport(NodeStatus.FAILURE, replanner.gave_up or "", 0, replans=tuple(replanner.replans))
         report = RuntimeReport(NodeStatus.RUNNING, f"{max_ticks} ticks without reaching the goal", 0)
@@ -387,8 +443,11 @@ def _status(answer: Any) -> NodeStatus | None:
 def _callbacks(
     task: GroundTask, actions: Mapping[str, ActionCallback]
 ) -> dict[int, tuple[ActionCallback, tuple[str, ...]]]:
-    """Each ground action's implementation: by its name, else by its predicate (with its objects)."""
-    by_name: dict[int, ActionCallback] = {}
+    """Each ground action's implementation: by its name, else by its predicate (with its objects).
+
+    The further ground actions of a PDDL action with a disjunctive precondition (``go-alt2(y,z)``,
+    see :func:`hbtp.logic.atoms.alternative_name`) share the implementation of ``go(y,z)`` / ``go``."""
+    by_name: dict[tuple[str, tuple[str, ...]], ActionCallback] = {}
     by_predicate: dict[str, ActionCallback] = {}
     predicates = set(task.action_predicates)
     for key, callback in actions.items():
@@ -398,15 +457,20 @@ def _callbacks(
             by_predicate[key] = callback
             continue
         try:
-            by_name[task.action(parse_atom(key)).index] = callback
+            named = task.action(parse_atom(key))
         except InputError as error:
             raise InputError(f"no action or action predicate {key!r} in {task.name}: {error}") from None
+        by_name[(named.predicate, named.objects)] = callback
     table: dict[int, tuple[ActionCallback, tuple[str, ...]]] = {}
     for ground in task.actions:
-        if ground.index in by_name:
-            table[ground.index] = (by_name[ground.index], ())
-        elif ground.predicate in by_predicate:
-            table[ground.index] = (by_predicate[ground.predicate], tuple(ground.objects))
+        for predicate in dict.fromkeys((ground.predicate, declared_action(ground.predicate))):
+            if (predicate, ground.objects) in by_name:
+                table[ground.index] = (by_name[(predicate, ground.objects)], ())
+            elif predicate in by_predicate:
+                table[ground.index] = (by_predicate[predicate], tuple(ground.objects))
+            else:
+                continue
+            break
     return _complete(task, table)
 
 
@@ -430,9 +494,9 @@ def _complete(
     return table
 
 
-def _empty_tree() -> Node:
-    """A tree that always fails (the first tick re-plans)."""
-    return Fallback(())
+def _no_tree(state: State) -> tuple[NodeStatus, int | None]:
+    """The policy before the first tree: it fails (so the first tick re-plans)."""
+    return NodeStatus.FAILURE, None
 
 
 # ============================================================ robustness

@@ -5,11 +5,11 @@ Mapping (one node ID per predicate, grounded arguments as input ports)::
     <root BTCPP_format="4" main_tree_to_execute="MainTree">
       <BehaviorTree ID="MainTree">
         <ReactiveFallback>
-          <Sequence name="Condition">                       <!-- a Condition of several literals -->
+          <Sequence name="Condition 1">                     <!-- a Condition of several literals -->
             <IsClose name="IsClose(fridge)" arg1="fridge"/>
             <IsIn name="IsIn(apple,fridge)" arg1="apple" arg2="fridge"/>
           </Sequence>
-          <ReactiveSequence>
+          <ReactiveSequence name="Sequence 2">
             <IsOpen name="IsOpen(fridge)" arg1="fridge"/>   <!-- a single literal: the leaf itself -->
             <RightPutIn name="RightPutIn(apple,fridge)" arg1="apple" arg2="fridge"/>
           </ReactiveSequence>
@@ -29,9 +29,15 @@ Mapping (one node ID per predicate, grounded arguments as input ports)::
 * **A negated literal ``~P(a)`` is an ``Inverter`` over the condition leaf of ``P(a)``**, named
   ``~P(a)`` (see :mod:`hbtp.logic.negation`); the reader takes such an Inverter back as the literal.
 * **A Condition of several literals is a ``Sequence`` of single-literal conditions** named
-  ``Condition``: each literal stays a reusable predicate check, and Groot2's live monitor shows
+  ``Condition N``: each literal stays a reusable predicate check, and Groot2's live monitor shows
   *which* literal failed, which a single node with a list-valued port would hide. The reader folds
-  such a ``Sequence`` back into one Condition; the empty Condition is ``<AlwaysSuccess>``.
+  such a ``Sequence`` (named ``Condition`` or ``Condition N``) back into one Condition; the empty
+  Condition is ``<AlwaysSuccess>``.
+* **Every group and control node but the root is named after its kind and its position among its
+  siblings** (``Condition 1``, ``Sequence 3``, ``Fallback 2``; a group at the root is ``Condition``),
+  so that the path of names from the root to any node is unique: py_trees' BT.CPP-XML reader
+  (``py_trees.parsers.behaviour_tree_xml``) names each node by that path and rejects a tree with two
+  equal names.
 * **Reactive control nodes** (``ReactiveFallback``, ``ReactiveSequence``, the default): the planner's
   trees re-check the goal and every condition at each tick (our :func:`hbtp.bt.nodes.tick` restarts at
   the root), which is exactly what BT.CPP's reactive nodes do while an asynchronous action is
@@ -94,6 +100,9 @@ _UNSUPPORTED_CONTROLS = {
 }
 _ARG_PORT = re.compile(r"arg([1-9][0-9]*)")
 _XML_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]*")
+# The name of a Sequence that stands for one Condition: ``Condition 2`` (``Condition`` in files
+# written before groups were numbered).
+_GROUP_NAME = re.compile(re.escape(CONDITION_GROUP) + r"(?: [0-9]+)?")
 # Attributes that only inform (Groot2 and BT.CPP write them) and never change what a node does.
 _INFORMATIVE = frozenset({"name", "ID", "_description", "_uid", "_fullpath"})
 
@@ -191,26 +200,27 @@ class _Writer:
         self.explicit_leaves = explicit_leaves
         self.used: dict[str, dict[str, int]] = {"Action": {}, "Condition": {}}  # kind -> ID -> ports
 
-    def node(self, node: Node) -> ET.Element:
+    def node(self, node: Node, position: int = 0) -> ET.Element:
+        """The element of ``node``, the ``position``-th child of its parent (0: the root)."""
         task = self.task
         if isinstance(node, Condition):
             atoms = sorted(task.atoms[i] for i in node.literals)
             if not atoms:
-                return ET.Element("AlwaysSuccess", {"name": CONDITION_GROUP})
+                return ET.Element("AlwaysSuccess", _named(CONDITION_GROUP, position, root=CONDITION_GROUP))
             leaves = [self.literal(a) for a in atoms]
             if len(leaves) == 1:
                 return leaves[0]
-            group = ET.Element("Sequence", {"name": CONDITION_GROUP})
+            group = ET.Element("Sequence", _named(CONDITION_GROUP, position, root=CONDITION_GROUP))
             group.extend(leaves)
             return group
         if isinstance(node, Action):
             signature = task.actions[node.action].signature
             return self.leaf("Action", self.ids.actions[signature.predicate], signature)
         if isinstance(node, Sequence):
-            element = ET.Element("ReactiveSequence" if self.reactive else "Sequence")
+            element = ET.Element("ReactiveSequence" if self.reactive else "Sequence", _named("Sequence", position))
         else:
-            element = ET.Element("ReactiveFallback" if self.reactive else "Fallback")
-        element.extend(self.node(child) for child in node.children)
+            element = ET.Element("ReactiveFallback" if self.reactive else "Fallback", _named("Fallback", position))
+        element.extend(self.node(child, index) for index, child in enumerate(node.children, start=1))
         return element
 
     def literal(self, atom: Atom) -> ET.Element:
@@ -245,6 +255,14 @@ class _Writer:
                     for position in range(1, used[node_id] + 1):
                         ET.SubElement(entry, "input_port", {"name": f"arg{position}", "type": "std::string"})
         return model
+
+
+def _named(kind: str, position: int, root: str = "") -> dict[str, str]:
+    """The ``name`` of a group or control node: its kind and its position among its siblings
+    (``Sequence 3``), which makes every node's path of names unique (py_trees' XML reader requires
+    it); at the root (position 0), ``root`` or none."""
+    name = f"{kind} {position}" if position else root
+    return {"name": name} if name else {}
 
 
 def _comment_text(text: str) -> str:
@@ -384,7 +402,7 @@ class _Reader:
             nodes = tuple(read.node for read in reads)
             if (
                 tag in _SEQUENCES
-                and element.get("name") == CONDITION_GROUP
+                and _GROUP_NAME.fullmatch(element.get("name") or "") is not None
                 and all(isinstance(n, Condition) for n in nodes)
             ):
                 return _Read(

@@ -7,11 +7,18 @@ and action predicate, the grounded literal in each leaf's ``name``, no ports (``
 not declare). The port-based flavour (``--format btcpp``) is the one C++ users implement; it loads
 in BT.CPP once each node type declares its ``arg1..argN`` input ports.
 
-Each condition callback succeeds iff its literal holds in the symbolic state; each action callback,
-if its precondition holds, applies the action's effects and returns RUNNING (a stateful action), so
-the reactive parents re-check the goal and the conditions at the next tick, as hbtp's own
-:func:`~hbtp.logic.execution.execute` does. Before each tick a disturbance (the executor's
-:class:`~hbtp.logic.execution.Disturbance`) may change the state. The result is the executor's
+:class:`BtcppPolicy` is BT.CPP as a tick policy (:data:`hbtp.logic.execution.Policy`): each call
+ticks the tree once in the state given. Each condition callback succeeds iff its literal holds in
+that state; each action callback fails when the action's precondition does not hold and otherwise
+records the action and returns RUNNING (a stateful action), which the reactive parents pass up to
+the root. The policy applies no effects: the world does (hbtp's executor
+:func:`~hbtp.logic.execution.execute`, with its disturbances, or the user's robot through
+:class:`hbtp.runtime.Runtime`). Before a tick that follows a RUNNING one the tree is halted, so
+every tick starts from idle nodes and re-checks the goal and every condition, as hbtp's own
+:func:`~hbtp.bt.nodes.tick` does, whatever the control nodes (plain ``Sequence``/``Fallback``
+would otherwise resume the running child); between ticks the tree keeps the statuses of the last
+one, which Groot2 shows. :class:`BtcppEngine` runs the policy in hbtp's executor from a state, with
+Groot2 and BT.CPP's log watching (:class:`Watch`); its result is the executor's
 :class:`~hbtp.logic.execution.Run`, so both engines are compared field by field.
 """
 
@@ -29,13 +36,14 @@ from typing import Any
 from hbtp.bt.btcpp import tree_to_btcpp, used_node_ids
 from hbtp.bt.btlog import read_btlog
 from hbtp.bt.nodes import Node
+from hbtp.bt.simulate import simulate
 from hbtp.errors import HbtpError, InputError
 from hbtp.logic.execution import Disturbance, NodeStatus, Run
 from hbtp.logic.task import GroundTask, State
 
 log = logging.getLogger(__name__)
 
-__all__ = ["BtcppEngine", "Watch", "btcpp_binding"]
+__all__ = ["BtcppEngine", "BtcppPolicy", "Watch", "btcpp_binding"]
 
 
 def btcpp_binding() -> Any:
@@ -46,32 +54,61 @@ def btcpp_binding() -> Any:
         raise InputError("--engine btcpp needs BehaviorTree.CPP's Python binding: pip install 'hbtp[btcpp]'") from None
 
 
-class BtcppEngine:
-    """BehaviorTree.CPP ticking ``tree`` over ``task``'s symbolic state (see the module docstring)."""
+class BtcppPolicy:
+    """BehaviorTree.CPP ticking ``tree`` once per call in the state given (see the module docstring)."""
 
     def __init__(self, tree: Node, task: GroundTask) -> None:
         self.bt = btcpp_binding()
-        self.task = task
         self.xml = tree_to_btcpp(tree, task, ports=False)
-        self.state: State = task.initial_state
-        self.executed: list[int] = []
-        self.errors: list[str] = []  # the binding turns a Python exception into FAILURE: kept to report
+        self.calls = _Callbacks(self.bt, task)
         self.factory = self.bt.BehaviorTreeFactory()
         conditions, actions = used_node_ids(tree, task)
         for node_id in conditions:
-            self.factory.register_simple_condition(node_id, self._condition)
+            self.factory.register_simple_condition(node_id, self.calls.condition)
         for node_id in actions:
-            self.factory.register_simple_stateful_action(node_id, self._action, self._action)
+            self.factory.register_simple_stateful_action(node_id, self.calls.action, self.calls.action)
+        #: The BT.CPP tree, built from :attr:`xml` (the exported text itself).
+        self.tree = self.factory.create_tree_from_text(self.xml)
+        self.running = False
 
-    def _condition(self, node: Any) -> Any:
+    def __call__(self, state: State) -> tuple[NodeStatus, int | None]:
+        if self.running:
+            self.tree.halt_tree()  # the next tick starts from idle nodes
+        calls = self.calls
+        calls.state, calls.ticked, calls.errors = state, None, []
+        status = _status(self.bt, self.tree.tick_once())
+        if calls.errors:
+            raise HbtpError(f"BehaviorTree.CPP callbacks failed: {'; '.join(calls.errors[:3])}")
+        self.running = status is NodeStatus.RUNNING
+        if not self.running:
+            return status, None
+        if calls.ticked is None:
+            raise HbtpError("BehaviorTree.CPP's root is RUNNING but no action was ticked")
+        return status, calls.ticked
+
+
+class _Callbacks:
+    """The Python side of a BT.CPP tree: the state of the tick its callbacks read, the action ticked,
+    the errors. Kept apart from the policy so that the factory's callbacks refer to nothing that
+    refers back to the factory: the tree is freed as soon as its policy is, not by a later garbage
+    collection."""
+
+    def __init__(self, bt: Any, task: GroundTask) -> None:
+        self.bt = bt
+        self.task = task
+        self.state: State = frozenset()
+        self.ticked: int | None = None
+        self.errors: list[str] = []  # the binding turns a Python exception into FAILURE: kept to report
+
+    def condition(self, node: Any) -> Any:
         try:
             holds = self.task.atom_id(node.name()) in self.state
-        except Exception as error:  # a name the task does not know: a bug, reported after the run
+        except Exception as error:  # a name the task does not know: a bug, reported after the tick
             self.errors.append(f"condition {node.name()!r}: {error}")
             raise
         return self.bt.NodeStatus.SUCCESS if holds else self.bt.NodeStatus.FAILURE
 
-    def _action(self, node: Any) -> Any:
+    def action(self, node: Any) -> Any:
         try:
             grounded = self.task.action(node.name())
         except Exception as error:
@@ -79,9 +116,25 @@ class BtcppEngine:
             raise
         if not grounded.applicable(self.state):
             return self.bt.NodeStatus.FAILURE
-        self.state = grounded.progress(self.state)
-        self.executed.append(grounded.index)
+        self.ticked = grounded.index
         return self.bt.NodeStatus.RUNNING
+
+
+class BtcppEngine:
+    """Runs of ``tree`` over ``task``'s symbolic state, ticked by BehaviorTree.CPP
+    (:class:`BtcppPolicy` in hbtp's executor), optionally watched by Groot2 and BT.CPP's log."""
+
+    def __init__(self, tree: Node, task: GroundTask) -> None:
+        self.bt = btcpp_binding()
+        self.tree = tree
+        self.task = task
+        #: The text every run ticks (the ``btcpp-named`` export).
+        self.xml = tree_to_btcpp(tree, task, ports=False)
+
+    @property
+    def factory(self) -> Any:
+        """A BT.CPP factory with the tree's node IDs registered (to load other layouts of the tree)."""
+        return BtcppPolicy(self.tree, self.task).factory
 
     def run(
         self,
@@ -90,38 +143,18 @@ class BtcppEngine:
         max_ticks: int,
         disturbance: Disturbance | None = None,
         watch: Watch | None = None,
+        trace: bool = False,
     ) -> Run:
         """Tick from ``state`` (default s0) until the root is not RUNNING or ``max_ticks`` ticks;
-        ``watch`` publishes the run to Groot2 and/or writes BT.CPP's log of it."""
+        ``watch`` publishes the run to Groot2 and/or writes BT.CPP's log of it, ``trace`` records
+        every tick in :attr:`Run.trace`. Each run ticks a tree of its own, freed when it ends."""
         if max_ticks < 1:
             raise InputError(f"max_ticks must be at least 1, not {max_ticks}")
-        self.state = self.task.initial_state if state is None else frozenset(state)
-        self.executed, self.errors = [], []
-        tree = self.factory.create_tree_from_text(self.xml)
-        with (watch or Watch()).attached(self.bt, tree):
-            return self._tick(tree, max_ticks, disturbance)
-
-    def _tick(self, tree: Any, max_ticks: int, disturbance: Disturbance | None) -> Run:
-        running = self.bt.NodeStatus.RUNNING
-        status, events, ticks = running, 0, 0
-        last: int | None = None
-        before: State | None = None
-        for ticks in range(1, max_ticks + 1):
-            if disturbance is not None:
-                event = disturbance(ticks, self.state, last, before)
-                if event is not None:
-                    self.state = event.apply(self.state)
-                    events += 1
-            done = len(self.executed)
-            before = self.state
-            status = tree.tick_once()
-            last = self.executed[-1] if len(self.executed) > done else None
-            if status != running:
-                break
-        if self.errors:
-            raise HbtpError(f"BehaviorTree.CPP callbacks failed: {'; '.join(self.errors[:3])}")
-        cost = sum(self.task.actions[i].cost for i in self.executed)
-        return Run(_status(self.bt, status), tuple(self.executed), cost, ticks, self.state, events)
+        policy = BtcppPolicy(self.tree, self.task)
+        with (watch or Watch()).attached(self.bt, policy.tree):
+            return simulate(
+                self.tree, self.task, state, max_ticks=max_ticks, disturbance=disturbance, trace=trace, policy=policy
+            )
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,8 @@ from typing import Any, TypeVar
 import click
 
 from hbtp.bt.btcpp_engine import BtcppEngine, Watch
-from hbtp.bt.disturb import check_probability, disturbed_runs, seeded_disturbances, summarise_runs
+from hbtp.bt.disturb import check_probability, seeded_disturbances, summarise_runs
+from hbtp.bt.engines import Engine
 from hbtp.bt.jsonio import goal_text
 from hbtp.bt.simulate import DEFAULT_MAX_TICKS, Run, simulate, trace_to_jsonl
 from hbtp.bt.verify import verify
@@ -29,8 +30,9 @@ from hbtp.cli.exit_codes import CommandError, ExitCode, command_error
 from hbtp.cli.options import ScenarioSource, echo_json, option_group, scenario_options, write_files_atomically
 from hbtp.cli.tree_input import TreeInput, load_tree_input
 from hbtp.errors import HbtpError, InputError
+from hbtp.logic.execution import Disturbance
 from hbtp.logic.task import GoalIds, GroundTask
-from hbtp.runtime import ReplanOptions, replanning_runs, replanning_summary
+from hbtp.runtime import ReplanningRun, ReplanOptions, replanning_runs, replanning_summary, replanning_trace_jsonl
 
 log = logging.getLogger(__name__)
 
@@ -112,7 +114,7 @@ class RunRequest:
     seed: int
     max_ticks: int
     replan: int
-    engine: str
+    engine: Engine
     groot: int | None
     btlog: str | None
     trace_file: str | None
@@ -140,11 +142,13 @@ run_options = option_group(
     ),
     click.option(
         "--engine",
-        type=click.Choice(["hbtp", "btcpp"]),
-        default="hbtp",
+        type=click.Choice([engine.value for engine in Engine]),
+        default=Engine.HBTP.value,
         show_default=True,
-        help="Who ticks the tree: hbtp's executor, or BehaviorTree.CPP itself (behaviortreepy; the tree as "
-        "exported with --format btcpp-named), with the same symbolic world and disturbances.",
+        callback=lambda _context, _parameter, value: Engine(value),
+        help="Who ticks the tree: hbtp's own engine, py_trees (the tree as exported with --format btcpp, "
+        "loaded by py_trees' BT.CPP-XML reader) or BehaviorTree.CPP itself (behaviortreepy; the tree as "
+        "exported with --format btcpp-named); hbtp's executor applies the actions and the disturbances.",
     ),
     click.option(
         "--groot",
@@ -175,42 +179,67 @@ def run_command(tree_file: str, source: ScenarioSource, goal_option: str | None,
     """
     _check_options(request.perturb, request.runs, request.max_ticks)
     read = load_tree_input(tree_file, source, goal_option)
-    if request.engine == "btcpp":
-        if request.replan or request.trace_file:
-            raise InputError("--engine btcpp does not go with --replan or --trace (hbtp's executor does both)")
-        if request.btlog and request.perturb > 0 and request.runs > 1:
-            raise InputError("--btlog logs one run: give --runs 1")
-        return _run_btcpp(read, tree_file, request)
-    if request.groot is not None or request.btlog:
+    watched = request.groot is not None or request.btlog
+    if watched and request.engine is not Engine.BTCPP:
         raise InputError("--groot and --btlog watch BehaviorTree.CPP: give --engine btcpp")
+    if watched and request.replan:
+        raise InputError("--groot and --btlog watch one tree: they do not go with --replan")
+    if request.btlog and request.perturb > 0 and request.runs > 1:
+        raise InputError("--btlog logs one run: give --runs 1")
+    request.engine.require()
     if request.replan:
         return _run_replanning(read, tree_file, request)
-    return _run_hbtp(read, tree_file, request)
+    return _run_tree(read, tree_file, request)
 
 
-def _run_hbtp(read: TreeInput, tree_file: str, request: RunRequest) -> int:
-    """The tree ticked by hbtp's executor: once, or ``--runs`` times under ``--perturb``."""
-    task, perturb, trace_file = read.scenario.task, request.perturb, request.trace_file
+#: One run of the tree: ``(disturbance, trace, log) -> Run`` (``log``: write --btlog of this run).
+Runner = Callable[[Disturbance | None, bool, bool], Run]
+
+
+def _runner(read: TreeInput, request: RunRequest) -> Runner:
+    """Runs of the tree ticked by ``--engine`` in hbtp's executor (with BT.CPP: watched by --groot,
+    logged by --btlog)."""
+    task, max_ticks = read.scenario.task, request.max_ticks
+    if request.engine is Engine.BTCPP:
+        engine = BtcppEngine(read.tree, task)
+
+        def btcpp(disturbance: Disturbance | None, trace: bool, log: bool) -> Run:
+            watch = Watch(request.groot, Path(request.btlog) if log and request.btlog else None)
+            return engine.run(max_ticks=max_ticks, disturbance=disturbance, watch=watch, trace=trace)
+
+        return btcpp
+    policy = request.engine.policy(read.tree, task)
+
+    def run(disturbance: Disturbance | None, trace: bool, log: bool) -> Run:
+        return simulate(read.tree, task, max_ticks=max_ticks, disturbance=disturbance, trace=trace, policy=policy)
+
+    return run
+
+
+def _run_tree(read: TreeInput, tree_file: str, request: RunRequest) -> int:
+    """The tree ticked by ``--engine``: once, or ``--runs`` times under ``--perturb``."""
+    task, perturb, trace_file, engine = read.scenario.task, request.perturb, request.trace_file, request.engine
     goal_ids: GoalIds = read.goal if read.goal is not None else frozenset()
-    base = simulate(read.tree, task, max_ticks=request.max_ticks, trace=trace_file is not None and perturb == 0)
+    run = _runner(read, request)
+    base = run(None, trace_file is not None and perturb == 0, perturb == 0)
     header: dict[str, Any] = {
         "tree": tree_file,
         "scenario": read.scenario.name,
         "goal": goal_text(read.goal) if read.goal is not None else None,
+        "engine": engine.value,
     }
+    prefix = "" if engine is Engine.HBTP else f"{engine.label}: "
     if perturb == 0:
         reached = base.reached(goal_ids)
         _write_traces(trace_file, [base], task, numbered=False)
         if request.as_json:
             echo_json({**header, "reached": reached, **base.to_dict(task)})
         else:
-            click.echo(_describe_run(base, reached))
+            click.echo(prefix + _describe_run(base, reached))
             click.echo("executes: " + abbreviate_steps([task.actions[i].name for i in base.executed]))
         return EXIT_OK if reached else EXIT_FAILED
-    results = disturbed_runs(
-        read.tree, task, read.scenario.mutexes, perturb, request.runs, request.seed,
-        max_ticks=request.max_ticks, trace=trace_file is not None,
-    )  # fmt: skip
+    disturbances = seeded_disturbances(task, read.scenario.mutexes, perturb, request.runs, request.seed)
+    results = [run(disturbance, trace_file is not None, True) for disturbance in disturbances]
     stats = summarise_runs(base, results, goal_ids)
     _write_traces(trace_file, results, task, numbered=True)
     if request.as_json:
@@ -218,6 +247,8 @@ def _run_hbtp(read: TreeInput, tree_file: str, request: RunRequest) -> int:
         settings = {"p": perturb, "seed": request.seed, "reached": stats["successes"] == len(results)}
         echo_json({**header, **settings, **stats, "base": base.to_dict(task), "results": rows})
     else:
+        if prefix:
+            click.echo(prefix.rstrip(" "))
         _echo_disturbed(stats, base.reached(goal_ids), base, perturb, request.seed)
     return EXIT_OK if stats["successes"] == len(results) else EXIT_FAILED
 
@@ -225,30 +256,26 @@ def _run_hbtp(read: TreeInput, tree_file: str, request: RunRequest) -> int:
 def _run_replanning(read: TreeInput, tree_file: str, request: RunRequest) -> int:
     """``hbtp run --replan N``: every run re-plans (at most N times) when the tree has no answer."""
     perturb, runs, seed, max_ticks = request.perturb, request.runs, request.seed, request.max_ticks
-    replan, trace_file, as_json = request.replan, request.trace_file, request.as_json
+    replan, trace_file, engine = request.replan, request.trace_file, request.engine
     if read.goal is None:
         raise InputError("--replan needs a goal to plan for: give -g, or a tree file that records one")
     task, goal = read.scenario.task, read.goal
-    base = simulate(read.tree, task, max_ticks=max_ticks)
-    options = ReplanOptions(max_replans=replan)
+    base = simulate(read.tree, task, max_ticks=max_ticks, policy=engine.policy(read.tree, task))
+    options = ReplanOptions(max_replans=replan, engine=engine)
     results = replanning_runs(
         read.scenario, goal, read.tree, perturb, runs, seed, max_ticks=max_ticks, options=options,
         trace=trace_file is not None,
     )  # fmt: skip
     stats = replanning_summary(base, results, goal)
-    _write_traces(trace_file, [r.run for r in results], task, numbered=True)
+    if trace_file:
+        text = "".join(replanning_trace_jsonl(r, task, run_index=i) for i, r in enumerate(results))
+        write_files_atomically({Path(trace_file): text})
     reached = stats["successes"] == len(results)
-    if as_json:
-        rows = [
-            {"reached": r.reached(goal), **r.run.to_dict(task), "replans": [x.to_dict() for x in r.replans],
-             "gave_up": r.gave_up}
-            for r in results
-        ]  # fmt: skip
-        header = {"tree": tree_file, "scenario": read.scenario.name, "goal": goal_text(goal)}
-        echo_json(
-            {**header, "p": perturb, "seed": seed, "replan": replan, "reached": reached, **stats, "results": rows}
-        )
+    if request.as_json:
+        _echo_replanning_json(read, tree_file, request, stats, results)
     else:
+        if engine is not Engine.HBTP:
+            click.echo(f"{engine.label}:")
         _echo_disturbed(stats, base.reached(goal), base, perturb, seed)
         median = stats["median_replan_ms"]
         click.echo(
@@ -261,29 +288,24 @@ def _run_replanning(read: TreeInput, tree_file: str, request: RunRequest) -> int
     return EXIT_OK if reached else EXIT_FAILED
 
 
-def _run_btcpp(read: TreeInput, tree_file: str, request: RunRequest) -> int:
-    """``hbtp run --engine btcpp``: the same runs, ticked by BehaviorTree.CPP."""
-    perturb, runs, seed, max_ticks = request.perturb, request.runs, request.seed, request.max_ticks
-    task = read.scenario.task
-    goal_ids: GoalIds = read.goal if read.goal is not None else frozenset()
-    engine = BtcppEngine(read.tree, task)
-    watch = Watch(request.groot, Path(request.btlog) if request.btlog else None)
-    base = engine.run(max_ticks=max_ticks, watch=watch if perturb == 0 else Watch(request.groot))
-    disturbances = seeded_disturbances(task, read.scenario.mutexes, perturb, runs, seed) if perturb > 0 else []
-    results = [engine.run(max_ticks=max_ticks, disturbance=d, watch=watch) for d in disturbances] or [base]
-    stats = summarise_runs(base, results, goal_ids)
-    reached = stats["successes"] == len(results)
-    if request.as_json:
-        header = {"tree": tree_file, "scenario": read.scenario.name, "engine": "btcpp", "p": perturb, "seed": seed}
-        rows = [{"reached": r.reached(goal_ids), **r.to_dict(task)} for r in results]
-        echo_json({**header, "reached": reached, **stats, "results": rows})
-    elif not disturbances:
-        click.echo("BehaviorTree.CPP: " + _describe_run(base, base.reached(goal_ids)))
-        click.echo("executes: " + abbreviate_steps([task.actions[i].name for i in base.executed]))
-    else:
-        click.echo("BehaviorTree.CPP:")
-        _echo_disturbed(stats, base.reached(goal_ids), base, perturb, seed)
-    return EXIT_OK if reached else EXIT_FAILED
+def _echo_replanning_json(
+    read: TreeInput, tree_file: str, request: RunRequest, stats: dict[str, Any], results: Sequence[ReplanningRun]
+) -> None:
+    task, goal = read.scenario.task, read.goal
+    assert goal is not None, "--replan checked that the run has a goal"
+    rows = [
+        {"reached": r.reached(goal), **r.run.to_dict(task), "replans": [x.to_dict() for x in r.replans],
+         "gave_up": r.gave_up}
+        for r in results
+    ]  # fmt: skip
+    header = {
+        "tree": tree_file,
+        "scenario": read.scenario.name,
+        "goal": goal_text(goal),
+        "engine": request.engine.value,
+    }
+    settings = {"p": request.perturb, "seed": request.seed, "replan": request.replan}
+    echo_json({**header, **settings, "reached": stats["successes"] == len(results), **stats, "results": rows})
 
 
 def _check_options(perturb: float, runs: int, max_ticks: int) -> None:
