@@ -18,6 +18,14 @@ QUICK = ["bench", "all", "--quick", "--llm", "oracle", "--no-progress"]
 KEYS = {"table1": table1.KEY, "table2": table2.KEY, "fig3": fig3.KEY, "fig4": fig4.KEY, "robustness": robustness.KEY}
 
 
+#: Table II's B-Time columns: whether OBTEA finished within the B-Time limit (load-dependent).
+LIMIT_FLAGS = ("b_solved", "b_lm_solved")
+
+
+def _without(row: dict[str, object], keys: tuple[str, ...]) -> dict[str, object]:
+    return {k: v for k, v in row.items() if k not in keys}
+
+
 def _results(out: Path) -> dict[str, dict[tuple[object, ...], dict[str, object]]]:
     """Every results.jsonl without its time fields, by part and row key."""
     results = {}
@@ -89,9 +97,12 @@ def test_the_whole_quick_run_gives_the_same_rows_inline_and_on_two_workers(tmp_p
     for part, rows in inline.items():
         assert rows.keys() == jobs[part].keys(), part
         for key, row in rows.items():
-            # Whether a run near its time limit finishes depends on the load, not on the executor.
-            if "timeout" not in (row.get("status"), jobs[part][key].get("status")):
-                assert row == jobs[part][key], (part, key)
+            # Whether a run near its time limit finishes depends on the load, not on the executor: so
+            # do timed-out rows and Table II's B-Time flags (its quick limit is 1 s, and RobotHow's
+            # task 1 takes about 1.2 s without a heuristic on this VM).
+            other = jobs[part][key]
+            if "timeout" not in (row.get("status"), other.get("status")):
+                assert _without(row, LIMIT_FLAGS) == _without(other, LIMIT_FLAGS), (part, key)
     report = (tmp_path / "jobs" / "report.md").read_text(encoding="utf-8")
     assert "](fig3/none/fig3.png)" in report
     assert "](fig3/lm/fig3.png)" in report
