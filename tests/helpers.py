@@ -110,6 +110,16 @@ def brute_force(
     return None, ()
 
 
+#: A PDDL domain whose ``go`` needs a road or a rail (a disjunctive precondition over fluents: ``pave``
+#: turns a rail into a road), so it grounds to ``go`` and ``go-alt2`` per pair of places.
+ROAD_OR_RAIL_DOMAIN = (
+    "(define (domain d) (:requirements :adl) (:predicates (road ?a ?b) (rail ?a ?b) (at ?a))"
+    " (:action go :parameters (?a ?b) :precondition (and (at ?a) (or (road ?a ?b) (rail ?a ?b)))"
+    " :effect (and (at ?b) (not (at ?a))))"
+    " (:action pave :parameters (?a ?b) :precondition (rail ?a ?b) :effect (and (road ?a ?b) (not (rail ?a ?b)))))"
+)
+
+
 def cheapest(
     start: Hashable, holds: Callable[[Any], bool], successors: Callable[[Any], Iterable[tuple[int, Hashable]]]
 ) -> int | None:

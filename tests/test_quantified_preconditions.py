@@ -20,7 +20,7 @@ from hbtp.cli import main
 from hbtp.domains.scenarios import ScenarioOptions, load_pddl_scenario
 from hbtp.errors import GroundingError, InputError
 from hbtp.planning import Status, plan
-from helpers import cheapest
+from helpers import ROAD_OR_RAIL_DOMAIN, cheapest
 
 Ground = frozenset[tuple[str, ...]]
 Formula = tuple[
@@ -187,13 +187,7 @@ def test_the_random_cases_exercise_what_they_claim(tmp_path: Path) -> None:
 
 
 def test_a_disjunctive_precondition_gives_one_action_per_alternative(tmp_path: Path) -> None:
-    (tmp_path / "d.pddl").write_text(
-        "(define (domain d) (:requirements :adl) (:predicates (road ?a ?b) (rail ?a ?b) (at ?a))"
-        " (:action go :parameters (?a ?b) :precondition (and (at ?a) (or (road ?a ?b) (rail ?a ?b)))"
-        " :effect (and (at ?b) (not (at ?a))))"
-        " (:action pave :parameters (?a ?b) :precondition (rail ?a ?b) :effect (and (road ?a ?b) (not (rail ?a ?b)))))",
-        encoding="utf-8",
-    )
+    (tmp_path / "d.pddl").write_text(ROAD_OR_RAIL_DOMAIN, encoding="utf-8")
     (tmp_path / "p.pddl").write_text(
         "(define (problem p) (:domain d) (:objects x y z) (:init (at x) (rail x y) (rail y z)) (:goal (at z)))",
         encoding="utf-8",

@@ -10,7 +10,7 @@ import threading
 from pathlib import Path
 
 import pytest
-from tests.helpers import kitchen_builder
+from tests.helpers import ROAD_OR_RAIL_DOMAIN, kitchen_builder
 
 from hbtp.bt import tree_of
 from hbtp.bt.disturb import RandomDisturbance, event_model, run_seed
@@ -27,6 +27,7 @@ from hbtp.logic.task import GroundTask, State
 from hbtp.planning import plan
 from hbtp.runtime import (
     UNSOLVABLE_FROM_STATE,
+    ReplanningRun,
     ReplanOptions,
     Runtime,
     RuntimeFailure,
@@ -88,9 +89,10 @@ def _relaxed_closure(task: GroundTask, state: State) -> frozenset[int]:
     return frozenset(reached)
 
 
-def test_a_goal_made_unreachable_ends_with_a_reason_not_a_loop() -> None:
+def _milk_dropped_at_tick_2(*, trace: bool = False) -> tuple[GroundTask, ReplanningRun]:
+    """The kitchen's milk task, run with re-planning while an event makes the robot drop the milk
+    at tick 2 (which no action undoes: the goal becomes unreachable)."""
     task = kitchen_builder().build()
-    scenario = _scenario(task)
     goal = task.resolve_goal("IsIn(milk,fridge)")
     tree = tree_of(plan(task, goal, "obtea"), "full")
     holding = task.atom_id("IsHolding(self,milk)")
@@ -98,7 +100,11 @@ def test_a_goal_made_unreachable_ends_with_a_reason_not_a_loop() -> None:
     def drop_the_milk(tick: int, state: State, last: int | None, before: State | None) -> Event | None:
         return Event("make-false", frozenset(), frozenset({holding})) if tick == 2 and holding in state else None
 
-    run = run_replanning(scenario, goal, tree, max_ticks=100, disturbance=drop_the_milk)
+    return task, run_replanning(_scenario(task), goal, tree, max_ticks=100, disturbance=drop_the_milk, trace=trace)
+
+
+def test_a_goal_made_unreachable_ends_with_a_reason_not_a_loop() -> None:
+    _task, run = _milk_dropped_at_tick_2()
     assert run.run.status is NodeStatus.FAILURE
     assert run.run.ticks == 2
     assert run.gave_up is not None
@@ -276,16 +282,7 @@ def test_a_replanning_trace_shows_each_new_tree_before_the_first_tick_that_uses_
 
 
 def test_a_run_that_gives_up_says_why_at_the_end_of_its_trace() -> None:
-    task = kitchen_builder().build()
-    scenario = _scenario(task)
-    goal = task.resolve_goal("IsIn(milk,fridge)")
-    tree = tree_of(plan(task, goal, "obtea"), "full")
-    holding = task.atom_id("IsHolding(self,milk)")
-
-    def drop_the_milk(tick: int, state: State, last: int | None, before: State | None) -> Event | None:
-        return Event("make-false", frozenset(), frozenset({holding})) if tick == 2 and holding in state else None
-
-    run = run_replanning(scenario, goal, tree, max_ticks=100, disturbance=drop_the_milk, trace=True)
+    task, run = _milk_dropped_at_tick_2(trace=True)
     lines = [json.loads(line) for line in replanning_trace_jsonl(run, task, run_index=0).splitlines()]
     assert [line["tick"] for line in lines[:-1] if "replan" not in line] == [1, 2]
     assert lines[1]["replan"]["status"] == "unsolvable"  # before tick 2, where the tree failed
@@ -332,13 +329,7 @@ def test_the_documented_toy_robot_example_runs() -> None:
 
 
 def test_the_alternatives_of_a_disjunctive_precondition_share_their_actions_implementation(tmp_path: Path) -> None:
-    (tmp_path / "d.pddl").write_text(
-        "(define (domain d) (:requirements :adl) (:predicates (road ?a ?b) (rail ?a ?b) (at ?a))"
-        " (:action go :parameters (?a ?b) :precondition (and (at ?a) (or (road ?a ?b) (rail ?a ?b)))"
-        " :effect (and (at ?b) (not (at ?a))))"
-        " (:action pave :parameters (?a ?b) :precondition (rail ?a ?b) :effect (and (road ?a ?b) (not (rail ?a ?b)))))",
-        encoding="utf-8",
-    )
+    (tmp_path / "d.pddl").write_text(ROAD_OR_RAIL_DOMAIN, encoding="utf-8")
     (tmp_path / "p.pddl").write_text(
         "(define (problem p) (:domain d) (:objects x y) (:init (at x) (rail x y)) (:goal (at y)))", encoding="utf-8"
     )

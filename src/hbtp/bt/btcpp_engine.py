@@ -57,9 +57,10 @@ def btcpp_binding() -> Any:
 class BtcppPolicy:
     """BehaviorTree.CPP ticking ``tree`` once per call in the state given (see the module docstring)."""
 
-    def __init__(self, tree: Node, task: GroundTask) -> None:
+    def __init__(self, tree: Node, task: GroundTask, xml: str | None = None) -> None:
         self.bt = btcpp_binding()
-        self.xml = tree_to_btcpp(tree, task, ports=False)
+        #: The ``btcpp-named`` export of ``tree`` (``xml`` when the caller has it already).
+        self.xml = xml if xml is not None else tree_to_btcpp(tree, task, ports=False)
         self.calls = _Callbacks(self.bt, task)
         self.factory = self.bt.BehaviorTreeFactory()
         conditions, actions = used_node_ids(tree, task)
@@ -134,7 +135,7 @@ class BtcppEngine:
     @property
     def factory(self) -> Any:
         """A BT.CPP factory with the tree's node IDs registered (to load other layouts of the tree)."""
-        return BtcppPolicy(self.tree, self.task).factory
+        return BtcppPolicy(self.tree, self.task, self.xml).factory
 
     def run(
         self,
@@ -150,7 +151,7 @@ class BtcppEngine:
         every tick in :attr:`Run.trace`. Each run ticks a tree of its own, freed when it ends."""
         if max_ticks < 1:
             raise InputError(f"max_ticks must be at least 1, not {max_ticks}")
-        policy = BtcppPolicy(self.tree, self.task)
+        policy = BtcppPolicy(self.tree, self.task, self.xml)
         with (watch or Watch()).attached(self.bt, policy.tree):
             return simulate(
                 self.tree, self.task, state, max_ticks=max_ticks, disturbance=disturbance, trace=trace, policy=policy

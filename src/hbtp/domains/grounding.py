@@ -218,6 +218,14 @@ def objects_by_type(domain: Domain, objects: Iterable[TypedName]) -> dict[str, t
     return {t: tuple(dict.fromkeys(names)) for t, names in table.items()}
 
 
+def typed_objects(by_type: Mapping[str, tuple[str, ...]], typed: TypedName) -> tuple[str, ...]:
+    """The objects a parameter or variable of ``typed``'s type(s) ranges over (``by_type`` as
+    :func:`objects_by_type` gives it)."""
+    if len(typed.types) == 1:
+        return by_type.get(typed.types[0], ())
+    return tuple(dict.fromkeys(o for t in typed.types for o in by_type.get(t, ())))
+
+
 def action_bindings(
     domain: Domain,
     problem: Problem,
@@ -327,12 +335,7 @@ class _Grounder:
 
     # ----------------------------------------------------------------- types
     def domain_of(self, typed: TypedName) -> tuple[str, ...]:
-        if len(typed.types) == 1:
-            return self.by_type.get(typed.types[0], ())
-        merged: list[str] = []
-        for t in typed.types:
-            merged.extend(self.by_type.get(t, ()))
-        return tuple(dict.fromkeys(merged))
+        return typed_objects(self.by_type, typed)
 
     def tick(self, count: int = 1) -> None:
         """Count ``count`` units of work; every :data:`_TICKS` units, check the deadline."""

@@ -21,7 +21,7 @@ from hbtp.collector import collector_paused
 from hbtp.deadline import Deadline, check_deadline
 from hbtp.domains import cache
 from hbtp.domains.cache import cache_dir
-from hbtp.domains.grounding import ActionFilter, ground, objects_by_type
+from hbtp.domains.grounding import ActionFilter, ground, objects_by_type, typed_objects
 from hbtp.domains.lifted import (
     And,
     AtomFormula,
@@ -32,7 +32,6 @@ from hbtp.domains.lifted import (
     Not,
     Or,
     Problem,
-    TypedName,
     is_variable,
 )
 from hbtp.domains.mutex import Mutexes, infer_mutexes, with_negation_groups
@@ -68,10 +67,6 @@ def _goal_text(formula: Formula, source: Path) -> str:
         text = joiner.join(_goal_text(part, source) for part in formula.parts)
         return text if len(formula.parts) == 1 else f"({text})"
     raise InputError(f"{source}:{formula.line or '?'}: the problem's :goal compares objects (=); give the goal with -g")
-
-
-def _objects_of(by_type: Mapping[str, tuple[str, ...]], typed: TypedName) -> tuple[str, ...]:
-    return tuple(dict.fromkeys(o for t in typed.types for o in by_type.get(t, ())))
 
 
 def _equalities_evaluated(formula: Formula) -> Formula | bool:
@@ -136,15 +131,16 @@ class Scenario:
         """The problem file's ``:goal`` as goal text (``P(a,b) & ~Q(c) | R(a)``): the default of
         ``hbtp plan``.
 
-        Raises :class:`InputError` when the problem has no goal (the shipped scenarios' problems hold
-        a placeholder) or one with an equality.
+        Its ``exists``/``forall`` are expanded over the objects and its equalities evaluated. Raises
+        :class:`InputError` when the problem has no goal (the shipped scenarios' problems hold a
+        placeholder) or one that is then always or never true.
         """
-        goal = self.pddl.problem.goal
+        pddl = self.pddl  # read once: a scenario from the cache reads its files again for it
+        goal = pddl.problem.goal
         if isinstance(goal, And) and not goal.parts:
             raise InputError(f"{self.problem_file}: the problem has no :goal to plan for; give one with -g")
-        pddl = self.pddl
         by_type = objects_by_type(pddl.domain, (*pddl.domain.constants, *pddl.problem.objects))
-        objects_of = functools.partial(_objects_of, by_type)
+        objects_of = functools.partial(typed_objects, by_type)
         expanded = _equalities_evaluated(expand_formula(goal, objects_of, f"{self.problem_file}: the :goal"))
         if isinstance(expanded, bool):
             raise InputError(
