@@ -121,7 +121,7 @@ def test_negative_preconditions_and_dnf_goals_against_brute_force(seed: int, tmp
     extended, goal = scenario.resolve_goal(scenario.problem_goal())
     optimum = case.optimum()
     where = f"seed={seed}\n{case.domain_text()}\n{case.problem_text()}"
-    for heuristic in ("none", "lm"):
+    for heuristic in ("none", "lm", "lmcut"):
         result = plan(extended.task, goal, "obtea", mutexes=extended.mutexes, heuristic=heuristic)
         if optimum is None:
             assert result.status is Status.UNSOLVABLE, where

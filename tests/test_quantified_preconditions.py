@@ -159,7 +159,7 @@ def test_quantified_and_disjunctive_conditions_against_brute_force(seed: int, tm
         assert ("always" in decided and optimum == 0) or ("never" in decided and optimum is None), where
         return
     extended, goal = scenario.resolve_goal(goal_text)
-    for heuristic in ("none", "lm"):
+    for heuristic in ("none", "lm", "lmcut"):
         result = plan(extended.task, goal, "obtea", mutexes=extended.mutexes, heuristic=heuristic)
         if optimum is None:
             assert result.status is Status.UNSOLVABLE, where

@@ -3,7 +3,7 @@
 The oracle (tests/helpers.py) is a forward uniform-cost search over states, sharing no code with the
 planner. For every seed and both with and without the proved mutexes of ``infer_mutexes``:
 
-* OBTEA (heuristic none, hmax, lm) is complete, the path it finds is optimal and D(T), the cost of
+* OBTEA (heuristic none, hmax, lm, lmcut) is complete, the path it finds is optimal and D(T), the cost of
   running its tree from s0, equals the optimum; an unsolvable task ends UNSOLVABLE;
 * HBTP-O with p̂ = an optimal plan (in any order) is optimal (Proposition 1); with a sub-multiset of
   it, sound;
@@ -34,7 +34,7 @@ from hbtp.planning import Hints, PlanResult, Status, plan
 from helpers import RandomCase, brute_force, is_subsequence, plan_cost, random_case, reaches, run_tree
 
 SEEDS = range(600)
-HEURISTICS = ("none", "hmax", "lm")
+HEURISTICS = ("none", "hmax", "lm", "lmcut")
 
 
 @functools.cache
@@ -225,7 +225,7 @@ def test_hbtp_o_with_a_sub_multiset_of_an_optimal_plan_is_sound(seed: int) -> No
     rng = random.Random(seed)
     optimal = names(task, case.plan)
     for label, mutexes in mutex_variants(seed):
-        for heuristic in ("none", "lm"):
+        for heuristic in ("none", "lm", "lmcut"):
             path = tuple(name for name in optimal if rng.random() < 0.5)
             result = plan(task, case.goal, "hbtp-o", hints=Hints(path=path), heuristic=heuristic, mutexes=mutexes)
             check_result(case, result, f"{label}, heuristic={heuristic}, hints={list(path)}")
@@ -252,7 +252,7 @@ def test_every_planner_is_sound_and_complete_with_any_hints(seed: int) -> None:
     for label, mutexes in mutex_variants(seed):
         for hint_label, hints in hint_variants(case, rng):
             for planner in ("bte", "hbtp-s", "hbtp-o"):
-                for heuristic in ("none", "lm"):
+                for heuristic in ("none", "lm", "lmcut"):
                     result = plan(case.task, case.goal, planner, hints=hints, heuristic=heuristic, mutexes=mutexes)
                     check_result(case, result, f"{label}, heuristic={heuristic}, {hint_label}")
 

@@ -16,20 +16,27 @@ needs), and ``cost(f)`` is the cheapest share of an achiever of ``f``. Then
 ``h(c) = ceil(Σ_{f ∈ L(c)} cost(f))`` is admissible (a plan pays each action at most once across its
 shares; plan costs are whole numbers) and consistent, since ``L(c) ⊆ L(regress(c, a)) ∪ add(a)`` and
 the shares of ``a`` add up to at most its cost. The combined heuristic is ``max(hmax, lm)``.
+
+``lmcut``: ``max(hmax, lm, LM-cut)`` (:mod:`hbtp.planning.lmcut`), the strongest and costliest. LM-cut
+is admissible but not consistent, so it is :class:`Deferred`: the open list is ordered by
+``max(hmax, lm)`` and a condition's LM-cut is computed when it is first taken off the list (it goes
+back with the higher value if LM-cut raises it), and the search re-opens a condition it reaches
+again more cheaply, which keeps OBTEA optimal.
 """
 
 from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from typing import Literal, Protocol, overload
 
 from hbtp.deadline import Deadline
 from hbtp.logic.task import GroundAction, GroundTask
+from hbtp.planning.lmcut import LmCut
 
-HeuristicName = Literal["none", "hmax", "lm"]
-HEURISTICS: tuple[str, ...] = ("none", "hmax", "lm")
+HeuristicName = Literal["none", "hmax", "lm", "lmcut"]
+HEURISTICS: tuple[str, ...] = ("none", "hmax", "lm", "lmcut")
 _SETUP = "setting up the heuristic"
 
 
@@ -369,6 +376,26 @@ class LandmarkSum:
         return float(math.ceil(sum(share[f] for f in landmarks) - 1e-9))
 
 
+class Deferred:
+    """A cheap consistent heuristic that orders the open list, and a costly admissible one that
+    ``refine`` evaluates when the search first takes a condition off the list (see the module
+    docstring): the search re-opens conditions under it."""
+
+    def __init__(self, cheap: Heuristic, costly: Callable[[frozenset[int]], float]) -> None:
+        self.cheap = cheap
+        self.costly = costly
+
+    def __call__(self, condition: Iterable[int]) -> float:
+        return self.cheap(condition)
+
+    def precondition_bound(self, action: GroundAction) -> float:
+        return self.cheap.precondition_bound(action)
+
+    def refine(self, condition: frozenset[int]) -> float:
+        """The costly estimate of ``condition`` (at least the cheap one's)."""
+        return max(self.cheap(condition), self.costly(condition))
+
+
 def build_heuristic(
     name: str,
     task: GroundTask,
@@ -379,7 +406,7 @@ def build_heuristic(
     discounts: Mapping[int, float] | None = None,
     deadline: Deadline | None = None,
 ) -> Heuristic | None:
-    """The heuristic ``name`` (``none``, ``hmax``, ``lm``) for this action space.
+    """The heuristic ``name`` (``none``, ``hmax``, ``lm``, ``lmcut``) for this action space.
 
     Action costs are multiplied by ``scale``, and the actions in ``discounts`` (by index) cost what
     it says instead: the step costs of HBTP. With changed costs, ``lm`` uses the landmark sum alone
@@ -396,7 +423,7 @@ def build_heuristic(
             return HMax(analysis.hmax)
         costs = {a.index: discounts.get(a.index, a.cost * scale) for a in actions}
         return HMax(hmax_table(task, actions, costs, deadline))
-    if name != "lm":
+    if name not in ("lm", "lmcut"):
         raise ValueError(f"unknown heuristic {name!r}")
     # Shares: cached for the space (relevant = atoms some precondition needs), scaled, then patched
     # for goal atoms no precondition needs and for discounted actions (their values only go down).
@@ -415,4 +442,8 @@ def build_heuristic(
                 if value < share[atom]:
                     share[atom] = value
     hmax = analysis.hmax if plain else None
-    return LandmarkSum(analysis.landmarks, share, task.initial_state, analysis.pre_landmarks, hmax)
+    cheap = LandmarkSum(analysis.landmarks, share, task.initial_state, analysis.pre_landmarks, hmax)
+    if name == "lm":
+        return cheap
+    changed = None if plain else {a.index: discounts.get(a.index, a.cost * scale) for a in actions}
+    return Deferred(cheap, LmCut(task, actions, changed, deadline))

@@ -51,6 +51,7 @@ class SearchStats:
     time_s: float = 0.0
     action_space: int = 0
     tree_conditions: int = 0  # conditions in the tree: explored, plus any robustness expansions
+    reopened: int = 0  # expanded conditions reached again more cheaply (only under lmcut)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -62,6 +63,7 @@ class SearchStats:
             "time_s": self.time_s,
             "action_space": self.action_space,
             "tree_conditions": self.tree_conditions,
+            "reopened": self.reopened,
         }
 
 

@@ -15,9 +15,14 @@ conditions with an unreachable literal are dropped for every planner.
 Speed: actions are indexed by the atoms they add; the best known value per condition is kept
 (Algorithm 1, line 11) and stale heap entries are skipped; a condition is pruned when an expanded
 subset of it was reached at no higher cost (the g-check keeps this safe under A*); conditions with
-mutually exclusive literals are pruned using the domain's mutexes. Ties are broken by the number of
-heuristic actions still owed, then by the number of literals false in s0, then by insertion order,
-so runs are deterministic.
+mutually exclusive literals are pruned using the domain's mutexes. Under a
+:class:`~hbtp.planning.heuristics.Deferred` heuristic (``lmcut``), a condition's costly estimate is
+computed when it is first taken off the open list (it is queued again if that raises its priority),
+and a condition reached again more cheaply after its expansion is re-opened: expanded again, as a new
+branch whose parent was expanded before it (the old branch stays, costlier, and still sound).
+
+Ties are broken by the number of heuristic actions still owed, then by the number of literals false
+in s0, then by insertion order, so runs are deterministic.
 """
 
 from __future__ import annotations
@@ -38,7 +43,7 @@ from hbtp.logic.subsets import SubsetIndex
 from hbtp.logic.task import Goal, GroundAction, GroundTask, listing
 from hbtp.planning.costs import Number, StepCosts
 from hbtp.planning.execution import execute_expansions
-from hbtp.planning.heuristics import Heuristic, HeuristicName, build_heuristic
+from hbtp.planning.heuristics import Deferred, Heuristic, HeuristicName, build_heuristic
 from hbtp.planning.hints import ResolvedHints
 from hbtp.planning.limits import Limits, LimitWatch
 from hbtp.planning.result import Expansion, PlanResult, SearchStats, Status
@@ -55,17 +60,19 @@ class SearchConfig:
     heuristic: HeuristicName = "none"
 
 
-# An open-list entry: (priority, owed, unmet, order, g, condition, resume), compared left to right:
+# An open-list entry: (priority, owed, unmet, order, g, condition, stage), compared left to right:
 # the priority, then the number of actions p̂ still owes, the number of literals false in s0, the
-# insertion order; then g, the condition and whether the entry resumes the condition's pending
-# children (see _Search.generate). A plain tuple: a NamedTuple costs 0.3 µs more per push.
-_Entry = tuple[Number, int, int, int, Number, frozenset[int], bool]
+# insertion order; then g, the condition and the entry's stage: _READY to expand, _RESUME the
+# condition's pending children (see _Search.generate), or _UNREFINED (the costly estimate of a
+# Deferred heuristic is still to be computed). A plain tuple: a NamedTuple costs 0.3 µs more per push.
+_Entry = tuple[Number, int, int, int, Number, frozenset[int], int]
+_READY, _RESUME, _UNREFINED = 0, 1, 2
 
 
 class _Node:
     """Search bookkeeping for one condition (mutable, internal)."""
 
-    __slots__ = ("action", "closed", "cost", "g", "owed", "parent", "peek", "pending", "seen")
+    __slots__ = ("action", "closed", "cost", "g", "owed", "parent", "peek", "pending", "reopened", "seen")
 
     def __init__(
         self, g: Number, cost: int, owed: tuple[int, ...], parent: frozenset[int] | None, action: int | None
@@ -76,6 +83,7 @@ class _Node:
         self.parent = parent
         self.action = action
         self.closed = False
+        self.reopened = False  # the condition was expanded before, at a higher g
         self.pending: Iterator[tuple[Number, int]] | None = None
         self.peek: tuple[Number, int] | None = None
         self.seen: set[int] | None = None
@@ -243,6 +251,10 @@ class _Search:
             deadline=watch.as_deadline(),
         )  # fmt: skip
         self.astar = self.heuristic is not None and costs.orders_by_heuristic
+        self.deferred = self.heuristic if isinstance(self.heuristic, Deferred) and self.astar else None
+        self.fresh = _UNREFINED if self.deferred is not None else _READY  # the stage of a new condition
+        self.check_every = 15 if self.deferred is not None else 255  # pops between time checks, minus 1
+        self.reopened = 0
         self.achievers, self.in_space = _achiever_index(task, actions)
         # Achievers of each atom, built when first needed and sorted by a lower bound of how much a
         # child's priority exceeds its parent's g (see adders_of).
@@ -298,9 +310,9 @@ class _Search:
             return g + self.heuristic(condition)
         return g
 
-    def push(self, condition: frozenset[int], node: _Node, priority: Number, resume: bool) -> None:
+    def push(self, condition: frozenset[int], node: _Node, priority: Number, stage: int) -> None:
         self.counter += 1
-        entry: _Entry = (priority, sum(node.owed), len(condition - self.s0), self.counter, node.g, condition, resume)
+        entry: _Entry = (priority, sum(node.owed), len(condition - self.s0), self.counter, node.g, condition, stage)
         heapq.heappush(self.open, entry)
 
     # -------------------------------------------------------------------- run
@@ -320,27 +332,30 @@ class _Search:
             self.nodes[condition] = root
             self.record(condition, root)
         for condition in self.live_roots():
-            self.push(condition, self.nodes[condition], self.priority(condition, 0), False)
+            self.push(condition, self.nodes[condition], self.priority(condition, 0), self.fresh)
         roots = frozenset(self.goal.disjuncts)
         final: frozenset[int] | None = None
         open_list = self.open
         nodes = self.nodes
         expanded = self.expanded
         pops = 0
+        check_every = self.check_every
         while open_list and self.stopped is None:
-            priority, _owed, _unmet, _order, entry_g, condition, resume = heapq.heappop(open_list)
+            priority, _owed, _unmet, _order, entry_g, condition, stage = heapq.heappop(open_list)
             pops += 1
-            if pops & 255 == 0 and final is None and self.watch.timed_out():
+            if pops & check_every == 0 and final is None and self.watch.timed_out():
                 self.stopped = Status.TIMEOUT
                 break
             node = nodes[condition]
-            if resume:
+            if stage == _RESUME:
                 self.generate(condition, node, priority)
                 continue
             if node.closed or node.g != entry_g:
                 continue  # stale entry
             if condition not in roots and expanded.has_subset(condition, node.g):
                 self.pruned_subset += 1
+                continue
+            if stage == _UNREFINED and self.refined(condition, node, priority):
                 continue
             self.close(condition, node)
             if final is None and condition <= self.s0:
@@ -363,9 +378,19 @@ class _Search:
             self.stopped = None
         return self.result(final)
 
+    def refined(self, condition: frozenset[int], node: _Node, priority: Number) -> bool:
+        """Compute the Deferred heuristic's costly estimate; queue the condition again (and say so)
+        if it raises the priority."""
+        assert self.deferred is not None
+        value = node.g + self.deferred.refine(condition)
+        if value <= priority:
+            return False
+        self.push(condition, node, value, _READY)
+        return True
+
     def close(self, condition: frozenset[int], node: _Node) -> None:
         node.closed = True
-        if condition not in self.position:  # the goal's disjuncts are recorded at the start
+        if condition not in self.position or node.reopened:  # the goal's disjuncts are recorded at the start
             self.record(condition, node)
 
     def record(self, condition: frozenset[int], node: _Node) -> None:
@@ -418,7 +443,7 @@ class _Search:
             bound, index = item
             if bound > limit:
                 node.peek = item
-                self.push(condition, node, node.g + bound, True)
+                self.push(condition, node, node.g + bound, _RESUME)
                 return
             if index in seen:
                 continue
@@ -449,7 +474,7 @@ class _Search:
             step = self.full_cost(action)
         g = node.g + step
         known = self.nodes.get(result)
-        if known is not None and (known.closed or known.g <= g):
+        if known is not None and (known.g <= g or (known.closed and self.deferred is None)):
             return
         priority = self.priority(result, g)
         if math.isinf(priority) or (
@@ -458,9 +483,13 @@ class _Search:
             self.pruned_dead_end += 1
             return
         new = _Node(g, node.cost + action.cost, owed, condition, action.index)
+        if result in self.position:  # expanded before, at a higher g
+            new.reopened = True
+            if known is not None and known.closed:
+                self.reopened += 1
         self.nodes[result] = new
         self.generated += 1
-        self.push(result, new, priority, False)
+        self.push(result, new, priority, self.fresh)
 
     def release(self) -> tuple[object, ...]:
         """Hand over the search state, to be freed later (returning costs nothing then)."""
@@ -477,6 +506,7 @@ class _Search:
             pruned_subset=self.pruned_subset,
             pruned_mutex=self.pruned_mutex,
             pruned_dead_end=self.pruned_dead_end,
+            reopened=self.reopened,
             time_s=time.perf_counter() - self.watch.started,
             action_space=self.space,
         )

@@ -1,0 +1,196 @@
+"""LM-cut from s0 to a regressed condition, and the search that evaluates it deferred and re-opens.
+
+* LM-cut is admissible: on random tasks and random conditions it never exceeds the optimal cost of
+  the delete relaxation (h+, by brute force), and it is at least h_max;
+* on gripper it finds the textbook landmarks (a pick and a drop per ball, one move): 2n + 1 = h+;
+* OBTEA with ``lmcut`` is optimal against the brute-force optimum (also in tests/test_search_random.py);
+* the search's re-opening keeps OBTEA optimal under an admissible, deliberately inconsistent
+  estimate (the exact cost for half of the conditions, 0 for the rest), and does re-open; the tree,
+  with the old branches of re-opened conditions, reaches the goal from every condition in it.
+"""
+
+from __future__ import annotations
+
+import heapq
+import importlib
+import itertools
+import math
+import random
+from collections.abc import Collection, Iterable, Sequence
+
+import pytest
+
+from hbtp.bt import full_tree
+from hbtp.domains import DomainBuilder
+from hbtp.logic.task import GroundAction, GroundTask
+from hbtp.planning import plan
+from hbtp.planning.heuristics import Deferred, Heuristic, HMax, build_heuristic, hmax_table
+from hbtp.planning.lmcut import LmCut
+from helpers import brute_force, random_case, run_tree
+
+search_module = importlib.import_module("hbtp.planning.search")
+
+
+def relaxed_optimum(task: GroundTask, condition: frozenset[int]) -> float:
+    """h+: the cheapest plan for ``condition`` ignoring deletes (Dijkstra over growing atom sets)."""
+    start = task.initial_state
+    best = {start: 0}
+    heap = [(0, 0, start)]
+    counter = itertools.count()
+    while heap:
+        cost, _, state = heapq.heappop(heap)
+        if cost > best[state]:
+            continue
+        if condition <= state:
+            return float(cost)
+        for action in task.actions:
+            if action.pre <= state and not action.add <= state:
+                successor = state | action.add
+                value = cost + action.cost
+                if value < best.get(successor, value + 1):
+                    best[successor] = value
+                    heapq.heappush(heap, (value, next(counter), successor))
+    return math.inf
+
+
+@pytest.mark.parametrize("seed", range(150))
+def test_lmcut_lies_between_hmax_and_the_relaxed_optimum(seed: int) -> None:
+    case = random_case(seed)
+    task = case.task
+    lmcut = LmCut(task, task.actions)
+    hmax = HMax(hmax_table(task, task.actions))
+    rng = random.Random(seed)
+    atoms = range(len(task.atoms))
+    for _ in range(8):
+        condition = frozenset(rng.sample(atoms, rng.randint(1, min(4, len(atoms)))))
+        value, relaxed = lmcut(condition), relaxed_optimum(task, condition)
+        assert hmax(condition) <= value <= relaxed, (seed, sorted(condition))
+        assert math.isinf(value) == math.isinf(relaxed)
+
+
+def gripper(balls: int) -> GroundTask:
+    builder = DomainBuilder(f"gripper-{balls}")
+    rooms, hands = ("a", "b"), ("left", "right")
+    for here, there in itertools.permutations(rooms):
+        builder.action(f"Move({here},{there})", pre=[f"At_robby({here})"], add=[f"At_robby({there})"],
+                       delete=[f"At_robby({here})"])  # fmt: skip
+    for ball, room, hand in itertools.product(range(balls), rooms, hands):
+        at, carry, robby, free = f"At(b{ball},{room})", f"Carry(b{ball},{hand})", f"At_robby({room})", f"Free({hand})"
+        builder.action(f"Pick(b{ball},{room},{hand})", pre=[at, robby, free], add=[carry], delete=[at, free])
+        builder.action(f"Drop(b{ball},{room},{hand})", pre=[carry, robby], add=[at, free], delete=[carry])
+    builder.initial(["At_robby(a)", "Free(left)", "Free(right)", *(f"At(b{i},a)" for i in range(balls))])
+    return builder.build()
+
+
+@pytest.mark.parametrize("balls", [1, 3, 6])
+def test_lmcut_finds_the_landmarks_of_gripper(balls: int) -> None:
+    task = gripper(balls)
+    goal = task.resolve_goal([f"At(b{i},b)" for i in range(balls)])
+    assert LmCut(task, task.actions)(goal.literal_ids) == 2 * balls + 1
+    heuristic = build_heuristic("lmcut", task, task.actions, goal.literal_ids)
+    assert isinstance(heuristic, Deferred)
+    assert heuristic(goal.literal_ids) < heuristic.refine(goal.literal_ids) == 2 * balls + 1
+
+
+def test_lmcut_with_changed_costs_uses_them() -> None:
+    task = gripper(2)
+    goal = task.resolve_goal(["At(b0,b)", "At(b1,b)"])
+    doubled = {a.index: 2.0 * a.cost for a in task.actions}
+    assert LmCut(task, task.actions, doubled)(goal.literal_ids) == 2 * 5
+    halved = {a.index: 0.5 * a.cost for a in task.actions}
+    assert LmCut(task, task.actions, halved)(goal.literal_ids) == pytest.approx(2.5)
+
+
+@pytest.mark.parametrize("balls", [2, 3])
+def test_obtea_with_lmcut_is_optimal_on_gripper(balls: int) -> None:
+    task = gripper(balls)
+    goal = task.resolve_goal([f"At(b{i},b)" for i in range(balls)])
+    optimum, _ = brute_force(task, goal.literal_ids)
+    result = plan(task, goal, "obtea", heuristic="lmcut")
+    assert result.solved
+    assert result.cost == optimum
+    lm = plan(task, goal, "obtea", heuristic="lm")
+    assert result.stats.explored < lm.stats.explored
+
+
+class _Zero:
+    """0, or ``inf`` where h_max is (consistent; the search is then ordered by the refined value)."""
+
+    def __init__(self, hmax: Heuristic) -> None:
+        self.hmax = hmax
+
+    def __call__(self, condition: Iterable[int]) -> float:
+        return math.inf if math.isinf(self.hmax(condition)) else 0.0
+
+    def precondition_bound(self, action: GroundAction) -> float:
+        return 0.0
+
+
+class _Inconsistent:
+    """An admissible estimate that is exact on two thirds of the conditions and 0 on the others."""
+
+    def __init__(self, task: GroundTask) -> None:
+        self.task = task
+        self.known: dict[frozenset[int], float] = {}
+
+    def __call__(self, condition: frozenset[int]) -> float:
+        if sum(condition) % 3 == 0:
+            return 0.0
+        if condition not in self.known:
+            optimum, _ = brute_force(self.task, condition)
+            self.known[condition] = math.inf if optimum is None else float(optimum)
+        return self.known[condition]
+
+
+def test_reopening_keeps_obtea_optimal_under_an_inconsistent_estimate(monkeypatch: pytest.MonkeyPatch) -> None:
+    def inconsistent(
+        name: str, task: GroundTask, actions: Sequence[GroundAction], goal: Collection[int], **options: object
+    ) -> Deferred:
+        hmax = build_heuristic("hmax", task, actions, goal, **options)  # type: ignore[arg-type]
+        assert hmax is not None
+        return Deferred(_Zero(hmax), _Inconsistent(task))
+
+    monkeypatch.setattr(search_module, "build_heuristic", inconsistent)
+    reopened = 0
+    for seed in range(600):  # seeds 31, 205, 528 and 594 re-open
+        case = random_case(seed)
+        result = plan(case.task, case.goal, "obtea", heuristic="lmcut")
+        reopened += result.stats.reopened
+        if case.optimum is None:
+            assert not result.solved, seed
+            continue
+        assert result.solved, seed
+        assert result.cost == case.optimum, seed
+        assert sum(case.task.actions[i].cost for i in result.solution) == case.optimum
+        tree, ticks = full_tree(result.expansions), 2 * len(result.expansions) + 2
+        for expansion in result.expansions:  # a re-opened condition's old branch stays, and is sound
+            assert run_tree(tree, case.task, expansion.condition, ticks).reached, seed
+    assert reopened > 0
+
+
+def test_reopening_finds_the_path_an_inconsistent_estimate_hid(monkeypatch: pytest.MonkeyPatch) -> None:
+    """S -E(10)-> W; W -C1(10)-> X -A1(1)-> G costs 21, W -C2(1)-> Y -A2(5)-> G costs 16. The estimate
+    says 0 for X and W (admissible, inconsistent: h*(W) = 10) and 11 for Y, so {W} is expanded first
+    at g = 11 (through X), then reached at g = 6 through Y: re-opened, the optimum is found."""
+    builder = DomainBuilder("reopen")
+    for name, pre, add, cost in [("E", "S", "W", 10), ("C1", "W", "X", 10), ("A1", "X", "G", 1),
+                                 ("C2", "W", "Y", 1), ("A2", "Y", "G", 5)]:  # fmt: skip
+        builder.action(f"{name}(o)", pre=[f"{pre}(o)"], add=[f"{add}(o)"], cost=cost)
+    task = builder.initial(["S(o)"]).build()
+    estimate = {"G(o)": 16.0, "Y(o)": 11.0}
+
+    def inconsistent(
+        name: str, task: GroundTask, actions: Sequence[GroundAction], goal: Collection[int], **options: object
+    ) -> Deferred:
+        hmax = build_heuristic("hmax", task, actions, goal, **options)  # type: ignore[arg-type]
+        assert hmax is not None
+        return Deferred(_Zero(hmax), lambda c: max((estimate.get(str(task.atoms[a]), 0.0) for a in c), default=0.0))
+
+    monkeypatch.setattr(search_module, "build_heuristic", inconsistent)
+    result = plan(task, task.resolve_goal(["G(o)"]), "obtea", heuristic="lmcut")
+    assert result.stats.reopened == 1
+    assert result.cost == 16
+    assert [task.actions[i].name for i in result.executed] == ["E(o)", "C2(o)", "A2(o)"]
+    tree, ticks = full_tree(result.expansions), 2 * len(result.expansions) + 2
+    for expansion in result.expansions:  # {W} twice: the branch through Y comes first
+        assert run_tree(tree, task, expansion.condition, ticks).reached
