@@ -140,3 +140,34 @@ def test_pddl_validate_runs_fast_downward_where_no_reference(tmp_path: Path) -> 
     report = (out / "report.md").read_text(encoding="utf-8")
     assert "Fast Downward (A* + LM-cut)" in report
     assert "relevant to the goal at most 1.00x" in report
+
+
+IPC = Path(__file__).resolve().parents[2] / "shared" / "benchmarks" / "ipc"
+
+
+@pytest.mark.validate
+@pytest.mark.skipif(not IPC.is_dir(), reason="the IPC benchmark files (../shared/benchmarks/ipc) are absent")
+def test_pddl_on_the_first_instance_of_every_shipped_ipc_domain(tmp_path: Path) -> None:
+    """The documented CI subset of ``hbtp bench pddl ../shared/benchmarks/ipc --validate``: the first
+    instance (by name) of each of the 16 domains, 10 s per run, OBTEA with lmcut beside Fast Downward.
+    Coverage depends on the machine's load; costs, mismatches and tree checks do not."""
+    pytest.importorskip("up_fast_downward")
+    root = tmp_path / "ipc"
+    for domain in sorted(p for p in IPC.iterdir() if p.is_dir()):
+        first = sorted(p for p in domain.glob("*.pddl") if "domain" not in p.stem.lower())[0]
+        (root / domain.name).mkdir(parents=True)
+        for source in (domain / "domain.pddl", first):
+            (root / domain.name / source.name).symlink_to(source)
+    (root / "fd_optimal_costs.json").symlink_to(IPC / "fd_optimal_costs.json")
+    out = tmp_path / "out"
+    argv = ["bench", "pddl", str(root), "--validate", "-t", "10", "--jobs", "2", "--no-progress", "-o", str(out)]
+    assert main(argv) == EXIT_OK
+    results = rows(out / "results.jsonl")
+    assert len(results) == 2 * 16
+    ours = {r["domain"]: r for r in results if r["planner"] == "obtea"}
+    assert {r["heuristic"] for r in ours.values()} == {"lmcut"}
+    assert all(r["verified"] for r in ours.values() if r["solved"])
+    assert {r["status"] for r in ours.values()} <= {"solved", "timeout"}  # every domain loads
+    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    assert summary["mismatches"] == []
+    assert summary["compared"] >= 10

@@ -65,7 +65,7 @@ class Instance:
 @dataclass(frozen=True)
 class PddlConfig:
     planners: tuple[str, ...] = ("obtea",)
-    heuristic: HeuristicName = "lm"
+    heuristic: HeuristicName = "lmcut"
     time_limit: float = 60.0
     validate: bool = False
 

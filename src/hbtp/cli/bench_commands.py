@@ -427,7 +427,11 @@ def payoff(
 @click.argument("folder", metavar="DIR", type=click.Path(path_type=Path))
 @click.option("--planners", default="obtea", show_default=True, help="Comma-separated planners.")
 @click.option(
-    "--heuristic", type=click.Choice(list(HEURISTICS)), default="lm", show_default=True, help="LLM-free heuristic."
+    "--heuristic",
+    type=click.Choice(list(HEURISTICS)),
+    default="lmcut",
+    show_default=True,
+    help="LLM-free heuristic (lmcut: the strongest, for IPC-style domains).",
 )
 @click.option(
     "-t", "--time-limit", type=float, default=60.0, show_default=True, help="Seconds per run (load, then search)."

@@ -445,5 +445,7 @@ def build_heuristic(
     cheap = LandmarkSum(analysis.landmarks, share, task.initial_state, analysis.pre_landmarks, hmax)
     if name == "lm":
         return cheap
+    if plain and len(actions) == len(task.actions):  # kept with the task: its table serves every goal
+        return Deferred(cheap, task.derived((LmCut, "full"), lambda: LmCut(task, actions, None, deadline)))
     changed = None if plain else {a.index: discounts.get(a.index, a.cost * scale) for a in actions}
     return Deferred(cheap, LmCut(task, actions, changed, deadline))

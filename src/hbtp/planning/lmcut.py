@@ -110,10 +110,12 @@ class LmCut:
         total = 0.0
         while True:
             hmax = step.state.hmax
-            top = max((hmax[p] for p in goal), default=0.0)
-            if top <= 0.0:
+            top, atom = 0.0, -1
+            for p in goal:
+                if hmax[p] > top:
+                    top, atom = hmax[p], p
+            if atom < 0:
                 break
-            atom = next(p for p in goal if hmax[p] == top)
             following = step.next.get(atom) if step.next is not None else None
             if following is None:
                 following = self._cut(step, atom)
