@@ -61,17 +61,20 @@ class LmCut:
         if deadline is not None:
             deadline.check(_SETUP)
         self.initial = (*sorted(task.initial_state), true)
-        self.hmax, self.value = self._explore()
+        self.hmax, self.value, support = self._explore()
         self.choice = [self._choice(i, self.hmax, self.value[i]) for i in range(len(self.pre))]
         # The states after each sequence of cuts met so far, by the atoms cut for: a condition
         # whose costliest atoms come in the same order as an earlier one's reuses its rounds.
-        self.root = _Step(_Round(self, self.hmax, self.value, self.choice, self.cost), 0.0, {})
-        self.size = len(self.hmax) + 3 * len(self.pre)  # list slots per kept state
+        self.root = _Step(_Round(self, self.hmax, self.value, self.choice, self.cost, support), 0.0, {})
+        self.size = 2 * len(self.hmax) + 3 * len(self.pre)  # list slots per kept state
+        self.budget = max(16, len(self.pre) // 8)  # of _Round._zone_achievers
         self.room = _TABLE_SLOTS
 
-    def _explore(self) -> tuple[list[float], list[float]]:
-        """h_max of every atom from s0 with the original costs, and each action's precondition value."""
+    def _explore(self) -> tuple[list[float], list[float], list[int]]:
+        """h_max of every atom from s0 with the original costs, each action's precondition value, and
+        each atom's supporter (the action that gave it its h_max; -1 in s0 or unreachable)."""
         hmax = [_INF] * len(self.users)
+        support = [-1] * len(self.users)
         waiting = [len(p) for p in self.pre]
         value = [_INF] * len(self.pre)
         heap = [(0.0, p) for p in self.initial]
@@ -92,8 +95,9 @@ class LmCut:
                     for q in add[i]:
                         if reached < hmax[q]:
                             hmax[q] = reached
+                            support[q] = i
                             heapq.heappush(heap, (reached, q))
-        return hmax, value
+        return hmax, value, support
 
     def _choice(self, action: int, hmax: Sequence[float], value: float) -> int:
         """The action's precondition choice: its first precondition of the highest h_max (-1: never
@@ -150,34 +154,44 @@ class _Step:
 
 
 class _Round:
-    """The mutable state of one evaluation: h_max, precondition values and choices, and costs."""
+    """The mutable state of one evaluation: h_max, precondition values and choices, costs, and each
+    atom's supporter (an achiever whose precondition value plus cost is the atom's h_max)."""
 
-    __slots__ = ("choice", "cost", "hmax", "lm", "value")
+    __slots__ = ("choice", "cost", "hmax", "lm", "support", "value")
 
-    def __init__(self, lm: LmCut, hmax: list[float], value: list[float], choice: list[int], cost: list[float]) -> None:
+    def __init__(
+        self, lm: LmCut, hmax: list[float], value: list[float], choice: list[int], cost: list[float], support: list[int]
+    ) -> None:
         self.lm = lm
         self.hmax = hmax
         self.value = value
         self.choice = choice
         self.cost = cost
+        self.support = support
 
     def copy(self) -> _Round:
-        return _Round(self.lm, list(self.hmax), list(self.value), list(self.choice), list(self.cost))
+        return _Round(
+            self.lm, list(self.hmax), list(self.value), list(self.choice), list(self.cost), list(self.support)
+        )
 
     def cut(self, top: int) -> float:
         """Find the cut for the goal's costliest atom ``top``, take its cost off its actions, update
         h_max, and return that cost."""
-        cut = self._cut_actions(self._goal_zone(top))
+        zone = self._goal_zone(top)
+        cut = self._zone_achievers(zone, self.hmax[top])
+        if cut is None:
+            cut = self._cut_actions(zone)
         cost = self.cost
         m = min(cost[i] for i in cut)
         changed: list[tuple[float, int]] = []
-        hmax, value, add = self.hmax, self.value, self.lm.add
+        hmax, value, add, support = self.hmax, self.value, self.lm.add, self.support
         for i in cut:
             cost[i] -= m
             reached = value[i] + cost[i]
             for q in add[i]:
                 if reached < hmax[q]:
                     hmax[q] = reached
+                    support[q] = i
                     changed.append((reached, q))
         heapq.heapify(changed)
         self._lower(changed)
@@ -197,6 +211,34 @@ class _Round:
                         zone.add(p)
                         stack.append(p)
         return zone
+
+    def _zone_achievers(self, zone: set[int], top: float) -> list[int] | None:
+        """The cut, found from the zone's achievers: an achiever is in it when its precondition
+        choice is outside the zone and reached from s0 without entering it, which holds for every
+        atom of h_max below the zone's (``top``: its supporters' chain from s0 stays below), and is
+        shown for the others by following their supporters down to one. ``None`` when a chain meets
+        the zone (the full search of :meth:`_cut_actions` decides then)."""
+        achievers, choice, hmax, support = self.lm.achievers, self.choice, self.hmax, self.support
+        cut: dict[int, None] = {}
+        budget = self.lm.budget  # steps beyond which the full search is cheaper
+        for q in zone:
+            for i in achievers[q]:
+                p = choice[i]
+                if p < 0 or p in zone or i in cut:
+                    continue
+                while hmax[p] >= top:  # follow the supporters until h_max is below the zone's
+                    budget -= 1
+                    if p in zone or budget < 0:
+                        return None
+                    supporter = support[p]
+                    if supporter < 0:
+                        break
+                    p = choice[supporter]
+                cut[i] = None
+            budget -= len(achievers[q])
+            if budget < 0:
+                return None
+        return list(cut)
 
     def _cut_actions(self, zone: set[int]) -> list[int]:
         """The actions whose precondition choice is reached from s0 outside ``zone`` and that add an
@@ -226,7 +268,7 @@ class _Round:
         """Propagate lowered h_max values (a heap of them) to the actions that use the atoms."""
         lm = self.lm
         users, pre, add = lm.users, lm.pre, lm.add
-        hmax, value, choice, cost = self.hmax, self.value, self.choice, self.cost
+        hmax, value, choice, cost, support = self.hmax, self.value, self.choice, self.cost, self.support
         while heap:
             v, q = heapq.heappop(heap)
             if v != hmax[q]:
@@ -246,4 +288,5 @@ class _Round:
                     for q2 in add[i]:
                         if reached < hmax[q2]:
                             hmax[q2] = reached
+                            support[q2] = i
                             heapq.heappush(heap, (reached, q2))
