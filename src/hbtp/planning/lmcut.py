@@ -17,8 +17,10 @@ values and choices come from a table made once; later rounds update h_max increm
 actions whose cost dropped (only values that go down, in increasing order). The state after a round
 depends only on the atoms the rounds so far cut for (the condition's costliest atom each time, the
 lowest id among ties), so the states are kept in a tree by those atoms, up to a memory budget:
-conditions of one search mostly share their costliest atoms, and reuse each other's rounds. An
-action without a precondition gets an artificial one that holds in s0.
+conditions of one search mostly share their costliest atoms, and reuse each other's rounds. A cut
+is read off the goal zone's achievers when following supporters shows that their precondition
+choices are reached from s0 outside the zone (a forward search from s0 decides otherwise). An action
+without a precondition gets an artificial one that holds in s0.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ from hbtp.logic.task import GroundAction, GroundTask
 
 _INF = math.inf
 _SETUP = "setting up LM-cut"
-#: How many list slots the table of states after cuts may hold (8 bytes each: 64 MB).
+#: How many list slots the table of states after cuts may hold (8 bytes each: 64 MB, plus the values).
 _TABLE_SLOTS = 8_000_000
 
 
