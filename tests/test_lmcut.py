@@ -209,3 +209,17 @@ def test_reopening_finds_the_path_an_inconsistent_estimate_hid(monkeypatch: pyte
     tree, ticks = full_tree(result.expansions), 2 * len(result.expansions) + 2
     for expansion in result.expansions:  # {W} twice: the branch through Y comes first
         assert run_tree(tree, task, expansion.condition, ticks).reached
+
+
+def test_planning_with_lmcut_is_deterministic_with_a_warm_table() -> None:
+    """The table of states after cuts is kept with the task; a second search that reuses it, and a
+    search on a fresh copy of the task, give the very same tree."""
+    goal_atoms = [f"At(b{i},b)" for i in range(4)]
+    task = gripper(4)
+    first = plan(task, task.resolve_goal(goal_atoms), "obtea", heuristic="lmcut")
+    again = plan(task, task.resolve_goal(goal_atoms), "obtea", heuristic="lmcut")
+    fresh_task = gripper(4)
+    fresh = plan(fresh_task, fresh_task.resolve_goal(goal_atoms), "obtea", heuristic="lmcut")
+    assert first.solved
+    assert first.expansions == again.expansions == fresh.expansions
+    assert first.executed == again.executed == fresh.executed
