@@ -189,7 +189,7 @@ def _names_of_actions(task: GroundTask) -> list[str]:
 
 # ======================================================= not STRIPS: an error
 def test_a_conditional_effect_on_fluents_raises_naming_the_action() -> None:
-    with pytest.raises(GroundingError, match=r"action 'Peek' \(line \d+\): .*conditional effect"):
+    with pytest.raises(GroundingError, match=r"^<domain>:\d+:\d+: action 'Peek': .*conditional effect"):
         _static("(:action Peek :parameters (?x) :effect (when (Near ?x) (Done ?x)))")
 
 

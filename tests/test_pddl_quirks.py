@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from hbtp.cli import EXIT_INPUT, main
 from hbtp.domains import ground, read_domain, read_domain_file, read_problem, read_problem_file
 from hbtp.domains.lifted import AtomFormula, TypedName
 from hbtp.errors import PddlError, UnknownSymbolError
@@ -111,3 +112,28 @@ def test_every_shipped_ipc_domain_loads_and_grounds(name: str) -> None:
     task = ground(domain, read_problem_file(problem_file, domain))
     assert task.actions, problem_file
     assert re.fullmatch(r"[^\s()]+", task.actions[0].name.replace("(", "").replace(")", "")), task.actions[0].name
+
+
+CONDITIONAL_ON_FLUENTS = """(define (domain ce)
+  (:requirements :strips :conditional-effects)
+  (:predicates (a) (b) (c))
+  (:action flip :parameters () :precondition (a) :effect (c))
+  (:action go :parameters ()
+    :precondition (a)
+    :effect (and (b) (when (c) (not (a))))))
+"""
+
+
+def test_a_conditional_effect_on_fluents_is_refused_at_its_file_line_and_column(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "d.pddl").write_text(CONDITIONAL_ON_FLUENTS, encoding="utf-8")
+    (tmp_path / "p.pddl").write_text("(define (problem p) (:domain ce) (:init (a)) (:goal (b)))", encoding="utf-8")
+    tree = tmp_path / "tree.json"
+    argv = ["plan", "--pddl", str(tmp_path / "d.pddl"), str(tmp_path / "p.pddl"), "-p", "obtea", "-o", str(tree)]
+    assert main(argv) == EXIT_INPUT
+    error = capsys.readouterr().err.strip()
+    assert error.count("\n") == 0
+    assert f"{tmp_path / 'd.pddl'}:7:22: action 'go': a conditional effect" in error
+    assert "not supported" in error
+    assert not tree.exists()

@@ -56,6 +56,7 @@ from hbtp.domains.lifted import (
     Problem,
     TypedName,
     WhenEffect,
+    changed_predicates,
     is_variable,
 )
 from hbtp.domains.quantifiers import expand_domain
@@ -200,7 +201,7 @@ def fluent_predicates(domain: Domain, keep_fluent: frozenset[str]) -> set[str]:
     unknown = sorted(keep_fluent - set(domain.predicates))
     if unknown:
         raise InputError(f"keep_fluent names unknown predicate(s): {', '.join(unknown)}")
-    return _effect_predicates(domain.actions) | keep_fluent
+    return changed_predicates(domain.actions) | keep_fluent
 
 
 def objects_by_type(domain: Domain, objects: Iterable[TypedName]) -> dict[str, tuple[str, ...]]:
@@ -680,9 +681,14 @@ class _Grounder:
         if costs_only and not body:
             return []
         if not self._is_static(effect.condition):
+            source = self.domain.source
+            where = f"{source}:{effect.line}:{effect.column}: " if source and effect.line else ""
 
             def refuse(binding: Binding, add: set[_Key], delete: set[_Key], costs: list[int]) -> None:
-                raise self._not_strips(schema, effect.line, "a conditional effect on fluents")
+                raise GroundingError(
+                    f"{where}action {schema.name!r}: a conditional effect whose condition depends on the state "
+                    "(a conditional effect on fluents) is not supported"
+                )
 
             return [refuse]
         test = self._static_test(effect.condition)
@@ -1062,23 +1068,6 @@ def _disjoined(values: Sequence[list[_Key] | _Choice], schema: ActionSchema) -> 
 
 class _UndefinedCost(Exception):
     """A ground action's cost names a function value that :init does not define."""
-
-
-def _effect_predicates(actions: Iterable[ActionSchema]) -> set[str]:
-    found: set[str] = set()
-
-    def visit(effect: Effect) -> None:
-        if isinstance(effect, AddEffect | DeleteEffect):
-            found.add(effect.atom.predicate)
-        elif isinstance(effect, AndEffect):
-            for part in effect.parts:
-                visit(part)
-        elif isinstance(effect, ForallEffect | WhenEffect):
-            visit(effect.body)
-
-    for action in actions:
-        visit(action.effect)
-    return found
 
 
 def _flatten_and(formula: Formula) -> list[Formula]:

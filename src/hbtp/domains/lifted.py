@@ -11,6 +11,7 @@ read back from written text equals the original.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 
 OBJECT_TYPE = "object"
@@ -127,6 +128,7 @@ class WhenEffect:
     condition: Formula
     body: Effect
     line: int = field(default=0, compare=False)
+    column: int = field(default=0, compare=False)
 
 
 @dataclass(frozen=True, slots=True)
@@ -159,6 +161,7 @@ class Domain:
     predicates: dict[str, tuple[TypedName, ...]] = field(default_factory=dict)
     functions: dict[str, tuple[TypedName, ...]] = field(default_factory=dict)
     actions: tuple[ActionSchema, ...] = ()
+    source: str = field(default="", compare=False)  # the file it was read from, for messages
 
     @property
     def uses_action_costs(self) -> bool:
@@ -174,3 +177,23 @@ class Problem:
     numeric_init: dict[tuple[str, tuple[str, ...]], int] = field(default_factory=dict)
     goal: Formula = And(())
     minimize_cost: bool = False
+
+
+def changed_predicates(actions: Iterable[ActionSchema]) -> set[str]:
+    """The predicates some action adds or deletes (the fluents; the others are static)."""
+    found: set[str] = set()
+    for action in actions:
+        for effect in _effects(action.effect):
+            if isinstance(effect, AddEffect | DeleteEffect):
+                found.add(effect.atom.predicate)
+    return found
+
+
+def _effects(effect: Effect) -> Iterator[Effect]:
+    """``effect`` and every effect nested in it."""
+    yield effect
+    if isinstance(effect, AndEffect):
+        for part in effect.parts:
+            yield from _effects(part)
+    elif isinstance(effect, ForallEffect | WhenEffect):
+        yield from _effects(effect.body)

@@ -280,7 +280,8 @@ class _Reader:
         if head == "when":
             if len(args) != 2:
                 raise self.fail("(when condition effect) takes two parts", node)
-            return WhenEffect(self.formula(args[0], context), self.effect(args[1], context), node.line)
+            condition, body = self.formula(args[0], context), self.effect(args[1], context)
+            return WhenEffect(condition, body, node.line, node.column)
         if head == "increase":
             return self.cost_effect(node, context)
         if head in ("decrease", "assign", "scale-up", "scale-down"):
@@ -397,7 +398,9 @@ def read_domain(text: str, source: str = "<domain>", deadline: Deadline | None =
             raise reader.fail(f"action {action.name!r} is declared twice", node)
         action_names.add(action.name.lower())
         actions.append(action)
-    return Domain(name, tuple(parts.requirements), types, tuple(constants), predicates, parts.functions, tuple(actions))
+    return Domain(
+        name, tuple(parts.requirements), types, tuple(constants), predicates, parts.functions, tuple(actions), source
+    )
 
 
 @dataclass
