@@ -18,7 +18,8 @@ from dataclasses import dataclass
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 
-from hbtp.bt import Condition, Fallback, Node, NodeStatus, tick
+from hbtp.bt import Action, Condition, Fallback, Node, NodeStatus, tick
+from hbtp.bt import Sequence as SequenceNode
 from hbtp.bt.verify import verify
 from hbtp.domains import DomainBuilder, load_scenario
 from hbtp.logic.task import Goal, GroundTask
@@ -226,6 +227,33 @@ def without_ports(xml_text: str) -> str:
         element.text = element.tail = None
     ET.indent(root, space="  ")
     return ET.tostring(root, encoding="unicode")
+
+
+# --------------------------------------------------------------- trees no planner writes (edge shapes)
+def edge_shape_trees() -> tuple[GroundTask, list[Node]]:
+    """A two-action task and trees of shapes no planner writes: an empty condition, a lone leaf or
+    action at the root, a group at the root, sibling groups, a real Sequence of conditions, nesting;
+    with a 0-ary predicate (``Rested()``)."""
+    task = (
+        DomainBuilder("t")
+        .constants(["self"])
+        .action("Go(a)", add=["At(a)"])
+        .action("Rest()", pre=["At(a)"], add=["Rested()"])
+        .initial([])
+        .build()
+    )
+    at, rested = task.atom_id("At(a)"), task.atom_id("Rested()")
+    both = Condition(frozenset({at, rested}))
+    trees: list[Node] = [
+        Condition(frozenset()),
+        Condition(frozenset({rested})),
+        Action(task.action("Rest()").index),
+        both,
+        SequenceNode((both, both)),
+        SequenceNode((Condition(frozenset({at})), Condition(frozenset({rested})))),
+        Fallback((SequenceNode((Fallback((both,)),)), Action(task.action("Go(a)").index))),
+    ]
+    return task, trees
 
 
 # ------------------------------------------------------------------------------ a small shared task

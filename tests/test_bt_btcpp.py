@@ -27,7 +27,7 @@ from hbtp.logic.execution import NodeStatus
 from hbtp.logic.task import GroundTask
 from hbtp.planning import plan
 from hbtp.planning.result import PlanResult
-from helpers import plan_goals, run_tree, without_ports
+from helpers import edge_shape_trees, plan_goals, run_tree, without_ports
 
 GOALS = {
     "robowaiter": ("On_Water_Table1", "On_Dessert_Bar & Low_ACTemperature"),
@@ -76,25 +76,7 @@ def test_writer_is_deterministic(small: tuple[GroundTask, Node]) -> None:
 
 
 def test_round_trip_of_edge_shapes() -> None:
-    task = (
-        DomainBuilder("t")
-        .constants(["self"])
-        .action("Go(a)", add=["At(a)"])
-        .action("Rest()", pre=["At(a)"], add=["Rested()"])
-        .initial([])
-        .build()
-    )
-    at = task.atom_id("At(a)")
-    rested = task.atom_id("Rested()")
-    trees: list[Node] = [
-        Condition(frozenset()),
-        Condition(frozenset({rested})),
-        Action(task.action("Rest()").index),
-        Sequence((Condition(frozenset({at})), Condition(frozenset({rested})))),  # a real Sequence of conditions
-        Condition(frozenset({at, rested})),  # a group at the root
-        Sequence((Condition(frozenset({at, rested})), Condition(frozenset({at, rested})))),  # sibling groups
-        Fallback((Sequence((Fallback((Condition(frozenset({at, rested})),)),)), Action(0))),
-    ]
+    task, trees = edge_shape_trees()
     for tree in trees:
         for options in WRITER_OPTIONS:
             assert tree_from_btcpp(tree_to_btcpp(tree, task, **options), task) == tree, (tree, options)

@@ -11,18 +11,19 @@ from typing import Any
 
 import pytest
 
-from hbtp.bt import Action, Condition, Fallback, Node, Sequence, tick, tree_of
+from hbtp.bt import tick, tree_of
 from hbtp.bt.btcpp import tree_from_btcpp, tree_to_btcpp
 from hbtp.bt.disturb import RandomDisturbance, event_model
 from hbtp.bt.engines import Engine
 from hbtp.bt.export import export_tree
 from hbtp.bt.simulate import simulate
-from hbtp.domains import DomainBuilder, Scenario, load_scenario
+from hbtp.domains import Scenario, load_scenario
 from hbtp.errors import InputError
 from hbtp.logic.execution import NodeStatus
 from hbtp.logic.task import Goal
 from hbtp.planning import plan
 from hbtp.runtime import ReplanOptions, run_replanning
+from helpers import edge_shape_trees
 
 #: Small scenarios' goals: conjunctions, a disjunction ``A | B`` and a negated literal ``~p``
 #: (an Inverter in BT.CPP XML).
@@ -87,27 +88,9 @@ def test_every_engine_ticks_the_actions_of_the_simulator(
 
 
 def test_every_engine_ticks_edge_shapes_like_hbtp(engine: Engine) -> None:
-    """Trees no planner writes: an empty condition, a lone leaf or action at the root, a group at the
-    root, sibling groups, nesting; a 0-ary predicate (``Rested()``)."""
-    task = (
-        DomainBuilder("t")
-        .constants(["self"])
-        .action("Go(a)", add=["At(a)"])
-        .action("Rest()", pre=["At(a)"], add=["Rested()"])
-        .initial([])
-        .build()
-    )
+    """The trees of :func:`helpers.edge_shape_trees`, from every state of their task."""
+    task, trees = edge_shape_trees()
     at, rested = task.atom_id("At(a)"), task.atom_id("Rested()")
-    both = Condition(frozenset({at, rested}))
-    trees: list[Node] = [
-        Condition(frozenset()),
-        Condition(frozenset({rested})),
-        Action(task.action("Rest()").index),
-        both,
-        Sequence((both, both)),
-        Sequence((Condition(frozenset({at})), Condition(frozenset({rested})))),
-        Fallback((Sequence((Fallback((both,)),)), Action(task.action("Go(a)").index))),
-    ]
     states = [frozenset(), frozenset({at}), frozenset({rested}), frozenset({at, rested})]
     for tree in trees:
         policy = engine.policy(tree, task)

@@ -392,8 +392,9 @@ class Deferred:
         return self.cheap.precondition_bound(action)
 
     def refine(self, condition: frozenset[int]) -> float:
-        """The costly estimate of ``condition`` (at least the cheap one's)."""
-        return max(self.cheap(condition), self.costly(condition))
+        """The costly estimate of ``condition``. The heuristic's value is the larger of the two; the
+        search already holds the cheap one (a condition's priority), so only this one is computed."""
+        return self.costly(condition)
 
 
 def build_heuristic(

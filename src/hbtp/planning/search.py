@@ -380,7 +380,7 @@ class _Search:
 
     def refined(self, condition: frozenset[int], node: _Node, priority: Number) -> bool:
         """Compute the Deferred heuristic's costly estimate; queue the condition again (and say so)
-        if it raises the priority."""
+        if it raises the priority (``g`` plus the cheap estimate: the heuristic is their maximum)."""
         assert self.deferred is not None
         value = node.g + self.deferred.refine(condition)
         if value <= priority:
