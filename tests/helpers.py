@@ -18,12 +18,14 @@ from dataclasses import dataclass
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 
-from hbtp.bt import Action, Condition, Fallback, Node, NodeStatus, tick
+from hbtp.bt import Action, Condition, Fallback, Node, NodeStatus, full_tree, tick
 from hbtp.bt import Sequence as SequenceNode
+from hbtp.bt.simulate import simulate
 from hbtp.bt.verify import verify
 from hbtp.domains import DomainBuilder, load_scenario
+from hbtp.logic.execution import Run
 from hbtp.logic.task import Goal, GroundTask
-from hbtp.planning import plan
+from hbtp.planning import Status, plan
 from hbtp.planning.result import PlanResult
 
 LOCATIONS = ("l0", "l1", "l2")
@@ -319,3 +321,23 @@ def send_json_bytes(handler: BaseHTTPRequestHandler, status: int, data: bytes) -
     handler.send_header("Content-Length", str(len(data)))
     handler.end_headers()
     handler.wfile.write(data)
+
+
+def assert_obtea_optimal(task: GroundTask, goal: Goal, mutexes: Any, optimum: int | None, where: str) -> list[Run]:
+    """OBTEA with every heuristic: UNSOLVABLE when ``optimum`` is ``None``, else a tree of cost
+    ``optimum``, verified from s0, whose run from s0 reaches the goal at that cost; those runs."""
+    runs: list[Run] = []
+    for heuristic in ("none", "lm", "lmcut"):
+        result = plan(task, goal, "obtea", mutexes=mutexes, heuristic=heuristic)
+        if optimum is None:
+            assert result.status is Status.UNSOLVABLE, where
+            continue
+        assert result.solved, where
+        assert result.cost == optimum, where
+        tree = full_tree(result.expansions)
+        assert verify(tree, task, goal, from_initial_state=True).ok, where
+        run = simulate(tree, task)
+        assert run.reached(goal), where
+        assert run.cost == optimum, where
+        runs.append(run)
+    return runs

@@ -188,9 +188,12 @@ def _names_of_actions(task: GroundTask) -> list[str]:
 
 
 # ======================================================= not STRIPS: an error
-def test_a_conditional_effect_on_fluents_raises_naming_the_action() -> None:
-    with pytest.raises(GroundingError, match=r"^<domain>:\d+:\d+: action 'Peek': .*conditional effect"):
-        _static("(:action Peek :parameters (?x) :effect (when (Near ?x) (Done ?x)))")
+def test_a_conditional_effect_on_fluents_becomes_a_variant_whose_condition_holds() -> None:
+    # One variant where (Near a) fails, one where it holds and (Done a) is added too.
+    task = _static("(:action Peek :parameters (?x) :effect (and (Holding ?x) (when (Near ?x) (Done ?x))))")
+    assert _action(task, "Peek(a)")[0] == ["~Near(a)"]
+    assert _action(task, "Peek-alt2(a)")[0] == ["Near(a)"]
+    assert sorted(task.names(task.action("Peek-alt2(a)").add)) == ["Done(a)", "Holding(a)"]
 
 
 def test_fluent_disjunction_is_fine_when_statics_decide_it() -> None:

@@ -132,26 +132,26 @@ def test_only_on_an_ipc_domain_with_costs_and_reachability(reachable_only: bool)
         assert len({a.cost for a in part.actions}) > 1  # the costs come from the problem's functions
 
 
-NOT_STRIPS = """\
+NEGATIVE_COST = """\
 (define (domain d)
-  (:requirements :strips :conditional-effects :action-costs)
+  (:requirements :strips :action-costs)
   (:predicates (Done ?x) (Seen ?x) (item ?x))
-  (:functions (total-cost) - number (price ?x) - number)
+  (:functions (total-cost) - number (price ?x) - number (penalty ?x) - number)
   (:action Do :parameters (?x) :precondition (item ?x) :effect (and (Seen ?x) (increase (total-cost) (price ?x))))
-  (:action Peek :parameters (?x) :precondition (item ?x) :effect (when (Seen ?x) (Done ?x))))
+  (:action Peek :parameters (?x) :precondition (item ?x) :effect (and (Done ?x) (increase (total-cost) (penalty ?x)))))
 """
 
 
-def _not_strips() -> tuple[Domain, Problem]:
-    domain = read_domain(NOT_STRIPS)
-    init = "(item a) (item b) (item c) (= (price a) 3) (= (price b) 4)"
+def _negative_cost() -> tuple[Domain, Problem]:
+    domain = read_domain(NEGATIVE_COST)
+    init = "(item a) (item b) (item c) (= (price a) 3) (= (price b) 4) (= (penalty a) -1)"
     problem = read_problem(f"(define (problem p) (:domain d) (:objects a b c) (:init {init}) (:goal (and)))", domain)
     return domain, problem
 
 
 def test_the_effects_of_actions_left_out_are_never_computed() -> None:
-    domain, problem = _not_strips()
-    with pytest.raises(GroundingError, match="conditional effect on fluents"):
+    domain, problem = _negative_cost()
+    with pytest.raises(GroundingError, match="must not be negative"):
         ground(domain, problem)
     task = ground(domain, problem, only=lambda schema, args: schema == "Do")
     assert [(a.name, a.cost) for a in task.actions] == [("Do(a)", 3), ("Do(b)", 4)]  # Do(c)'s cost is undefined
@@ -212,10 +212,21 @@ def test_action_bindings_of_robothow_scaled_twice() -> None:
     assert listing < 5.0  # about 0.1 s: effects are not computed
 
 
-def test_action_bindings_skip_effects_and_drop_undefined_costs(caplog: pytest.LogCaptureFixture) -> None:
-    domain, problem = _not_strips()
+def test_action_bindings_list_each_binding_once_and_drop_undefined_costs(caplog: pytest.LogCaptureFixture) -> None:
+    """Peek has two variants per binding (Seen holds or not): listed once, at the cost when no
+    conditional effect fires."""
+    text = NEGATIVE_COST.replace(":action-costs)", ":action-costs :conditional-effects)")
+    domain = read_domain(
+        text.replace("(penalty ?x)))))", "(penalty ?x)) (when (Seen ?x) (increase (total-cost) 5)))))")
+    )
+    costs = "(= (price a) 3) (= (price b) 4) (= (penalty a) 0) (= (penalty b) 1) (= (penalty c) 2)"
+    init = f"(item a) (item b) (item c) {costs}"
+    problem = read_problem(f"(define (problem p) (:domain d) (:objects a b c) (:init {init}) (:goal (and)))", domain)
     found = action_bindings(domain, problem)
-    assert found == {"Do": ((("a",), 3), (("b",), 4)), "Peek": ((("a",), 0), (("b",), 0), (("c",), 0))}
+    assert found == {"Do": ((("a",), 3), (("b",), 4)), "Peek": ((("a",), 0), (("b",), 1), (("c",), 2))}
+    peeks = [(a.name, a.cost) for a in ground(domain, problem).actions if a.predicate.startswith("Peek")]
+    assert peeks[:3] == [("Peek(a)", 0), ("Peek(b)", 1), ("Peek(c)", 2)]  # Seen fails
+    assert peeks[3:] == [("Peek-alt2(a)", 5), ("Peek-alt2(b)", 6), ("Peek-alt2(c)", 7)]  # Seen holds
     assert "'Do' (line 5): 1 ground action(s) dropped, their cost is not defined in :init ((price c))" in caplog.text
 
 

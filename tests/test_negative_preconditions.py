@@ -11,16 +11,12 @@ from pathlib import Path
 
 import pytest
 
-from hbtp.bt import full_tree
-from hbtp.bt.simulate import simulate
-from hbtp.bt.verify import verify
 from hbtp.cli import main
 from hbtp.domains.grounding import ground
 from hbtp.domains.mutex import infer_mutexes
 from hbtp.domains.pddl_reader import read_domain, read_problem
 from hbtp.domains.scenarios import ScenarioOptions, load_pddl_scenario
-from hbtp.planning import Status, plan
-from helpers import cheapest
+from helpers import assert_obtea_optimal, cheapest
 
 Ground = frozenset[tuple[str, ...]]  # a state: ground atoms as (predicate, *objects)
 
@@ -121,18 +117,7 @@ def test_negative_preconditions_and_dnf_goals_against_brute_force(seed: int, tmp
     extended, goal = scenario.resolve_goal(scenario.problem_goal())
     optimum = case.optimum()
     where = f"seed={seed}\n{case.domain_text()}\n{case.problem_text()}"
-    for heuristic in ("none", "lm", "lmcut"):
-        result = plan(extended.task, goal, "obtea", mutexes=extended.mutexes, heuristic=heuristic)
-        if optimum is None:
-            assert result.status is Status.UNSOLVABLE, where
-            continue
-        assert result.solved, where
-        assert result.cost == optimum, where
-        tree = full_tree(result.expansions)
-        assert verify(tree, extended.task, goal, from_initial_state=True).ok, where
-        run = simulate(tree, extended.task)
-        assert run.reached(goal), where
-        assert run.cost == optimum, where
+    assert_obtea_optimal(extended.task, goal, extended.mutexes, optimum, where)
 
 
 def test_grounding_keeps_the_twins_exact() -> None:

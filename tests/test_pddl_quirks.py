@@ -11,9 +11,12 @@ from pathlib import Path
 
 import pytest
 
-from hbtp.cli import EXIT_INPUT, main
+from hbtp.bt.export import read_tree
+from hbtp.bt.simulate import simulate
+from hbtp.cli import main
 from hbtp.domains import ground, read_domain, read_domain_file, read_problem, read_problem_file
 from hbtp.domains.lifted import AtomFormula, TypedName
+from hbtp.domains.scenarios import ScenarioOptions, load_pddl_scenario
 from hbtp.errors import PddlError, UnknownSymbolError
 
 DOMAIN = """\
@@ -116,24 +119,25 @@ def test_every_shipped_ipc_domain_loads_and_grounds(name: str) -> None:
 
 CONDITIONAL_ON_FLUENTS = """(define (domain ce)
   (:requirements :strips :conditional-effects)
-  (:predicates (a) (b) (c))
+  (:predicates (a) (b) (c) (d))
   (:action flip :parameters () :precondition (a) :effect (c))
   (:action go :parameters ()
     :precondition (a)
-    :effect (and (b) (when (c) (not (a))))))
+    :effect (and (b) (when (c) (d)))))
 """
 
 
-def test_a_conditional_effect_on_fluents_is_refused_at_its_file_line_and_column(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
+def test_a_conditional_effect_on_fluents_is_planned_through_its_variants(tmp_path: Path) -> None:
+    """``go`` adds (d) only when (c) holds before it: the plan flips first."""
     (tmp_path / "d.pddl").write_text(CONDITIONAL_ON_FLUENTS, encoding="utf-8")
-    (tmp_path / "p.pddl").write_text("(define (problem p) (:domain ce) (:init (a)) (:goal (b)))", encoding="utf-8")
+    (tmp_path / "p.pddl").write_text(
+        "(define (problem p) (:domain ce) (:init (a)) (:goal (and (b) (d))))", encoding="utf-8"
+    )
     tree = tmp_path / "tree.json"
     argv = ["plan", "--pddl", str(tmp_path / "d.pddl"), str(tmp_path / "p.pddl"), "-p", "obtea", "-o", str(tree)]
-    assert main(argv) == EXIT_INPUT
-    error = capsys.readouterr().err.strip()
-    assert error.count("\n") == 0
-    assert f"{tmp_path / 'd.pddl'}:7:22: action 'go': a conditional effect" in error
-    assert "not supported" in error
-    assert not tree.exists()
+    assert main(argv) == 0
+    scenario = load_pddl_scenario(tmp_path / "d.pddl", tmp_path / "p.pddl", ScenarioOptions(name="ce"))
+    extended, goal = scenario.resolve_goal(scenario.problem_goal())
+    run = simulate(read_tree(tree, extended.task), extended.task)
+    assert run.reached(goal)
+    assert [extended.task.actions[i].name for i in run.executed] == ["flip()", "go-alt2()"]

@@ -13,14 +13,11 @@ from typing import Any
 
 import pytest
 
-from hbtp.bt import full_tree
-from hbtp.bt.simulate import simulate
-from hbtp.bt.verify import verify
 from hbtp.cli import main
 from hbtp.domains.scenarios import ScenarioOptions, load_pddl_scenario
 from hbtp.errors import GroundingError, InputError
-from hbtp.planning import Status, plan
-from helpers import ROAD_OR_RAIL_DOMAIN, cheapest
+from hbtp.planning import plan
+from helpers import ROAD_OR_RAIL_DOMAIN, assert_obtea_optimal, cheapest
 
 Ground = frozenset[tuple[str, ...]]
 Formula = tuple[
@@ -159,18 +156,7 @@ def test_quantified_and_disjunctive_conditions_against_brute_force(seed: int, tm
         assert ("always" in decided and optimum == 0) or ("never" in decided and optimum is None), where
         return
     extended, goal = scenario.resolve_goal(goal_text)
-    for heuristic in ("none", "lm", "lmcut"):
-        result = plan(extended.task, goal, "obtea", mutexes=extended.mutexes, heuristic=heuristic)
-        if optimum is None:
-            assert result.status is Status.UNSOLVABLE, where
-            continue
-        assert result.solved, where
-        assert result.cost == optimum, where
-        tree = full_tree(result.expansions)
-        assert verify(tree, extended.task, goal, from_initial_state=True).ok, where
-        run = simulate(tree, extended.task)
-        assert run.reached(goal), where
-        assert run.cost == optimum, where
+    assert_obtea_optimal(extended.task, goal, extended.mutexes, optimum, where)
 
 
 def test_the_random_cases_exercise_what_they_claim(tmp_path: Path) -> None:

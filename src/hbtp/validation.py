@@ -65,8 +65,13 @@ INSTALL_HINT = "install the validate extra: pip install -e '.[validate]'"
 ENGINE = "fast-downward-opt"
 #: The search of unified-planning's ``fast-downward-opt``, used with the driver too.
 SEARCH = "astar(lmcut())"
-#: The search for files whose translation may have axioms (see :func:`lifted_fast_downward_cost`).
+#: The search for files whose translation has axioms, which LM-cut and h_max do not support.
 BLIND_SEARCH = "astar(blind())"
+#: The search for files whose translation has conditional effects (LM-cut refuses them) and no axioms:
+#: h_max supports them and stays admissible.
+HMAX_SEARCH = "astar(hmax())"
+#: The translator's output in the driver's working directory.
+_TRANSLATION = "output.sas"
 #: The translator's count of ground operators in the driver's output.
 _OPERATORS_LINE = re.compile(r"^Translator operators: (\d+)$", re.MULTILINE)
 #: ``auto`` runs the driver for tasks with more grounded actions than this.
@@ -210,9 +215,9 @@ class FilesRun:
 
 
 def run_fast_downward_files(domain_file: Path, problem_file: Path, *, time_limit: float = 60.0) -> FilesRun:
-    """Solve the files optimally with Fast Downward's driver: A* with LM-cut, or blind A* when the
-    translation has axioms, which LM-cut does not support (some negated quantifiers and disjunctive
-    goals become axioms)."""
+    """Solve the files optimally with Fast Downward's driver: A* with LM-cut; A* with h_max when the
+    translation has conditional effects, which LM-cut does not support; blind A* when it has axioms
+    (some negated quantifiers and disjunctive goals become axioms), which neither supports."""
     _require_extra()
     started = time.perf_counter()
     texts = Path(domain_file).read_text(encoding="utf-8"), Path(problem_file).read_text(encoding="utf-8")
@@ -222,8 +227,9 @@ def run_fast_downward_files(domain_file: Path, problem_file: Path, *, time_limit
             copy.write_text(text, encoding="utf-8")
         search = SEARCH
         outcome = _solve_with_driver(*copies, time_limit, search)
-        if outcome.status is RunStatus.ERROR and "support axioms" in outcome.message:
-            search = BLIND_SEARCH
+        fallback = _fallback_search(outcome)
+        if fallback:
+            search = fallback
             left = time_limit - (time.perf_counter() - started)
             outcome = _solve_with_driver(*copies, max(left, 1.0), search)
     elapsed = time.perf_counter() - started
@@ -231,6 +237,20 @@ def run_fast_downward_files(domain_file: Path, problem_file: Path, *, time_limit
     if outcome.status is RunStatus.OPTIMAL and outcome.reported_cost is None:
         return FilesRun(RunStatus.ERROR, None, outcome.operators, elapsed, search, "Fast Downward reported no cost")
     return FilesRun(outcome.status, outcome.reported_cost, outcome.operators, elapsed, search, message)
+
+
+def _fallback_search(outcome: _Outcome) -> str:
+    """The search to run again with when LM-cut refused the translation ("" when it did not), read
+    in the driver's working directory."""
+    if outcome.status is not RunStatus.ERROR:
+        return ""
+    if "support axioms" in outcome.message:
+        return BLIND_SEARCH
+    if "support conditional effects" in outcome.message:
+        translation = Path(_TRANSLATION)
+        has_axioms = not translation.is_file() or "begin_rule" in translation.read_text(encoding="utf-8")
+        return BLIND_SEARCH if has_axioms else HMAX_SEARCH
+    return ""
 
 
 def lifted_fast_downward_cost(domain_file: Path, problem_file: Path, *, time_limit: float = 60.0) -> int | None:

@@ -3,6 +3,8 @@
 Static predicates (no action changes them) are evaluated against the problem's initial facts and
 disappear: guards such as ``(imply (hasplug ?y) (IsPlugged ?y))`` become plain STRIPS preconditions,
 and ``(forall (?z) (when (not (= ?z ?x)) (not (IsNear self ?z))))`` becomes a list of delete effects.
+A disjunction over fluents left in a precondition, or a ``when`` whose condition is over fluents,
+gives a binding several ground actions (:mod:`hbtp.domains.alternatives`).
 
 Bindings are enumerated by joining the static facts that an action's precondition requires (each
 disjunct of its static part in turn), so an action over 126 objects never tries all pairs blindly.
@@ -33,6 +35,7 @@ from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 from hbtp.deadline import Deadline, TimeLimitReached
+from hbtp.domains.alternatives import Choice, Effects, Value, add_case, alternatives, conjoined, disjoined, variants
 from hbtp.domains.lifted import (
     MAX_ACTION_COST,
     OBJECT_TYPE,
@@ -104,11 +107,11 @@ _Key = tuple[str, tuple[str, ...]]
 NEGATED = NEGATION
 _Template = tuple[tuple[bool, str], ...]  # (is a variable, name) per argument
 _Check = Callable[[Binding], bool]
-_Fluent = Callable[[Binding], "bool | list[_Key] | _Choice"]
-_Op = Callable[[Binding, set[_Key], set[_Key], list[int]], None]
-#: A ground action as built: its arguments, its precondition's alternatives (one unless the
-#: precondition has a disjunction over fluents), add, delete and cost.
-_Built = tuple[tuple[str, ...], tuple[tuple[_Key, ...], ...], set[_Key], set[_Key], int]
+_Fluent = Callable[[Binding], Value]
+_Op = Callable[[Binding, Effects], None]
+#: A binding of an action as built: its arguments and its variants, each with its precondition's
+#: alternatives (one unless the precondition has a disjunction over fluents), add, delete and cost.
+_Built = tuple[tuple[str, ...], list[tuple[tuple[tuple[_Key, ...], ...], set[_Key], set[_Key], int]]]
 _Grounded = tuple[Atom, frozenset[_Key], frozenset[_Key], frozenset[_Key], int]
 _Segment = tuple[list[tuple[str, ...]], tuple[_Check, ...]]  # a forall's values, with their checks
 
@@ -248,7 +251,7 @@ def action_bindings(
         for schema in domain.actions:
             grounder.check_deadline()
             built = grounder.build(schema, costs_only=True)
-            found[schema.name] = tuple(sorted((key, cost) for key, _, _, _, cost in built))
+            found[schema.name] = tuple(sorted((key, variants[0][3]) for key, variants in built if variants))
     except TimeLimitReached as stop:
         stopped = str(stop)
     if stopped:
@@ -492,17 +495,20 @@ class _Grounder:
             return
         counting = self.only is not None
         names = self._alternative_names(schema)
-        for key, alternatives, add, delete, cost in self.build(schema, costs_only=False):
-            deletes = frozenset(delete - add)  # delete, then add: what is added stays
-            for number, pre in enumerate(alternatives):
-                needs = frozenset(pre)
-                adds = frozenset(add) - needs  # adding what the precondition requires changes nothing
-                if not adds and not deletes:
-                    continue  # an action that changes nothing (Fast Downward drops it too)
-                if counting:
-                    self._count_kept(schema, key)
-                name = names[number] if number < len(names) else alternative_name(schema.name, number)
-                yield Atom(name, key), needs, adds, deletes, cost
+        for key, found in self.build(schema, costs_only=False):
+            number = 0
+            for options, add, delete, cost in found:
+                deletes = frozenset(delete - add)  # delete, then add: what is added stays
+                for pre in options:
+                    needs = frozenset(pre)
+                    adds = frozenset(add) - needs  # adding what the precondition requires changes nothing
+                    if not adds and not deletes:
+                        continue  # an action that changes nothing (Fast Downward drops it too)
+                    if counting:
+                        self._count_kept(schema, key)
+                    name = names[number] if number < len(names) else alternative_name(schema.name, number)
+                    number += 1
+                    yield Atom(name, key), needs, adds, deletes, cost
 
     def _alternative_names(self, schema: ActionSchema) -> tuple[str, ...]:
         """The names of the schema's first ground actions per binding, checked against the declared
@@ -518,27 +524,31 @@ class _Grounder:
         return names
 
     def build(self, schema: ActionSchema, costs_only: bool) -> Iterator[_Built]:
-        """The ground actions of ``schema``: arguments, precondition, add, delete (both empty with
-        ``costs_only``) and cost; those whose cost is undefined are left out with a warning."""
+        """The ground actions of ``schema``, per binding: its arguments and its variants
+        (:func:`~hbtp.domains.alternatives.variants`), each with its precondition's alternatives, add,
+        delete and cost; those whose cost is undefined are left out with a warning. With
+        ``costs_only``, effects are not computed and each binding has one variant, whose cost is the
+        action's when no conditional effect over fluents fires."""
         compiled = self._compile(schema)
         ops = compiled.cost_ops if costs_only else compiled.ops
         dropped: list[str] = []
-        for key, binding, alternatives in self._candidates(schema, compiled):
-            add: set[_Key] = set()
-            delete: set[_Key] = set()
-            costs: list[int] = []
+        for key, binding, pre in self._candidates(schema, compiled):
+            effects = Effects()
             try:
                 for op in ops:
-                    op(binding, add, delete, costs)
+                    op(binding, effects)
             except _UndefinedCost as undefined:
                 dropped.append(undefined.args[0])
                 continue
-            cost = sum(costs) if self.uses_costs else 1
-            if cost > MAX_ACTION_COST:
-                raise GroundingError(
-                    f"action {Atom(schema.name, key)} costs {cost}, more than the maximum {MAX_ACTION_COST}"
-                )
-            yield key, alternatives, add, delete, cost
+            found = [(pre, effects)] if costs_only or not effects.cases else variants(pre, effects, schema.name)
+            yield (
+                key,
+                [
+                    (alternatives(value), done.add, done.delete, self._cost(schema, key, done.costs))
+                    for value, done in found
+                    if not isinstance(value, bool)
+                ],
+            )
         if dropped:
             # Fast Downward's translator only instantiates reachable actions, and fails on one whose cost
             # is undefined; hbtp grounds from static facts alone, so it drops them (elevators' slow lifts).
@@ -550,11 +560,20 @@ class _Grounder:
                 listing(dropped, 3),
             )
 
+    def _cost(self, schema: ActionSchema, key: tuple[str, ...], costs: list[int]) -> int:
+        cost = sum(costs) if self.uses_costs else 1
+        if cost > MAX_ACTION_COST:
+            raise GroundingError(
+                f"action {Atom(schema.name, key)} costs {cost}, more than the maximum {MAX_ACTION_COST}"
+            )
+        return cost
+
     def _candidates(
         self, schema: ActionSchema, compiled: _Schema
-    ) -> Iterator[tuple[tuple[str, ...], Binding, tuple[tuple[_Key, ...], ...]]]:
+    ) -> Iterator[tuple[tuple[str, ...], Binding, list[_Key] | Choice]]:
         """Each binding (once) whose static precondition holds, that ``only`` accepts and whose fluent
-        precondition is not false, with the fluent literals it requires (each alternative's)."""
+        precondition is not false, with the fluent literals it requires (a choice of alternatives
+        when a disjunction over fluents remains)."""
         names, fluent, only = compiled.names, compiled.fluent, self.only
         allowed = only.objects if isinstance(only, Selection) else None
         seen: set[tuple[str, ...]] = set()
@@ -567,10 +586,10 @@ class _Grounder:
             if only is not None and not only(schema.name, key):
                 continue
             pre: list[_Key] = []
-            choices: list[_Choice] = []
+            choices: list[Choice] = []
             for part in fluent:
                 value = part(binding)
-                if isinstance(value, _Choice):
+                if isinstance(value, Choice):
                     choices.append(value)
                 elif isinstance(value, list):
                     pre.extend(value)
@@ -578,11 +597,11 @@ class _Grounder:
                     break
             else:
                 if not choices:
-                    yield key, binding, (tuple(pre),)
+                    yield key, binding, pre
                     continue
-                combined = _conjoined([pre, *choices], schema)
+                combined = conjoined([pre, *choices], schema.name)
                 if not isinstance(combined, bool):
-                    yield key, binding, _alternatives(combined)
+                    yield key, binding, combined
 
     # ----------------------------------------------------- static / fluent
     def _is_static(self, formula: Formula) -> bool:
@@ -680,23 +699,25 @@ class _Grounder:
         body = tuple(self._compile_effect(effect.body, schema, outer, costs_only))
         if costs_only and not body:
             return []
-        if not self._is_static(effect.condition):
-            source = self.domain.source
-            where = f"{source}:{effect.line}:{effect.column}: " if source and effect.line else ""
+        condition = effect.condition
+        if not self._is_static(condition):
+            # A condition over fluents: a case of the binding's effects (see hbtp.domains.alternatives).
+            simplify, name = self._simplify, schema.name
 
-            def refuse(binding: Binding, add: set[_Key], delete: set[_Key], costs: list[int]) -> None:
-                raise GroundingError(
-                    f"{where}action {schema.name!r}: a conditional effect whose condition depends on the state "
-                    "(a conditional effect on fluents) is not supported"
-                )
+            def case(binding: Binding, effects: Effects) -> None:
+                inner = Effects()
+                for op in body:
+                    op(binding, inner)
+                holds = simplify(condition, binding, schema)
+                add_case(effects, holds, simplify(condition, binding, schema, False), inner, name)
 
-            return [refuse]
-        test = self._static_test(effect.condition)
+            return [case]
+        test = self._static_test(condition)
 
-        def when(binding: Binding, add: set[_Key], delete: set[_Key], costs: list[int]) -> None:
+        def when(binding: Binding, effects: Effects) -> None:
             if test(binding):
                 for op in body:
-                    op(binding, add, delete, costs)
+                    op(binding, effects)
 
         return [when]
 
@@ -704,10 +725,10 @@ class _Grounder:
         amount = effect.amount
         if isinstance(amount, int):
             fixed = amount
-            return lambda binding, add, delete, costs: costs.append(fixed)
+            return lambda binding, effects: effects.costs.append(fixed)
         predicate, args, numeric = amount.predicate, _getter(amount.terms), self.problem.numeric_init
 
-        def cost(binding: Binding, add: set[_Key], delete: set[_Key], costs: list[int]) -> None:
+        def cost(binding: Binding, effects: Effects) -> None:
             key = (predicate, args(binding))
             if key not in numeric:
                 raise _UndefinedCost(f"({' '.join((key[0], *key[1]))})")
@@ -717,7 +738,7 @@ class _Grounder:
                     f"action {schema.name!r}: cost ({' '.join((key[0], *key[1]))}) is {value}, "
                     "and action costs must not be negative"
                 )
-            costs.append(value)
+            effects.costs.append(value)
 
         return cost
 
@@ -870,11 +891,9 @@ class _Grounder:
         return variables, _fact_check(formula.predicate, formula.terms, self.static_facts, literal.positive)
 
     # ------------------------------------------------------------- simplify
-    def _simplify(
-        self, formula: Formula, binding: Binding, schema: ActionSchema, positive: bool = True
-    ) -> bool | list[_Key] | _Choice:
+    def _simplify(self, formula: Formula, binding: Binding, schema: ActionSchema, positive: bool = True) -> Value:
         """Evaluate static parts (negated when not ``positive``); what remains is a conjunction of
-        fluent literals, or a :class:`_Choice` of such conjunctions when a disjunction over fluents
+        fluent literals, or a :class:`Choice` of such conjunctions when a disjunction over fluents
         remains (the action then has one ground action per alternative)."""
         if isinstance(formula, AtomFormula):
             terms = tuple(_subst(t, binding) for t in formula.terms)
@@ -896,7 +915,7 @@ class _Grounder:
             conjunctive = isinstance(formula, And) == positive
         else:
             raise self._not_strips(schema, formula.line, "a quantifier left unexpanded")  # expand_domain removes them
-        values: list[list[_Key] | _Choice] = []
+        values: list[list[_Key] | Choice] = []
         for part, polarity in parts:
             value = self._simplify(part, binding, schema, polarity)
             if value is not conjunctive and isinstance(value, bool):
@@ -905,7 +924,7 @@ class _Grounder:
                 values.append(value)
         if not values:
             return conjunctive
-        return _conjoined(values, schema) if conjunctive else _disjoined(values, schema)
+        return conjoined(values, schema.name) if conjunctive else disjoined(values, schema.name)
 
     def _not_strips(self, schema: ActionSchema, line: int, what: str) -> GroundingError:
         where = f" (line {line})" if line else ""
@@ -994,7 +1013,7 @@ class _Forall:
             for inner, checks in zip(inner_terms, outer_checks, strict=True)
         ]
 
-    def __call__(self, binding: Binding, add: set[_Key], delete: set[_Key], costs: list[int]) -> None:
+    def __call__(self, binding: Binding, effects: Effects) -> None:
         names, body = self.names, self.body
         extended = binding.copy()
         for values, checks in self.segments(binding):
@@ -1004,68 +1023,16 @@ class _Forall:
                 for (value,) in values:
                     extended[name] = value
                     if not checks or all(check(extended) for check in checks):
-                        op(extended, add, delete, costs)
+                        op(extended, effects)
                 continue
             for row in values:
                 extended.update(zip(names, row, strict=True))
                 if not checks or all(check(extended) for check in checks):
                     for op in body:
-                        op(extended, add, delete, costs)
+                        op(extended, effects)
 
 
 # ======================================================================= helpers
-class _Choice(tuple[tuple[_Key, ...], ...]):
-    """Two or more alternative conjunctions of fluent literals (a disjunctive precondition)."""
-
-
-def _alternatives(value: list[_Key] | _Choice) -> tuple[tuple[_Key, ...], ...]:
-    return value if isinstance(value, _Choice) else (tuple(value),)
-
-
-def _choice(alternatives: Iterable[tuple[_Key, ...]], schema: ActionSchema) -> bool | list[_Key] | _Choice:
-    """The alternatives that can hold (no ``p`` with ``~p``), each once, without those that ask for
-    more than another one does (their actions would be redundant)."""
-    kept: list[frozenset[_Key]] = []
-    for alternative in alternatives:
-        literals = frozenset(alternative)
-        if any((NEGATED + p, args) in literals for p, args in literals if not p.startswith(NEGATED)):
-            continue
-        if literals not in kept:
-            kept.append(literals)
-    if not kept:
-        return False
-    minimal = [a for a in kept if not any(b < a for b in kept)]
-    if len(minimal) > MAX_DNF_TERMS:
-        raise GroundingError(
-            f"action {schema.name!r}: a disjunctive precondition has more than {MAX_DNF_TERMS:,} alternatives"
-        )
-    if len(minimal) == 1:
-        return sorted(minimal[0])
-    return _Choice(tuple(sorted(a)) for a in minimal)
-
-
-def _conjoined(values: Sequence[list[_Key] | _Choice], schema: ActionSchema) -> bool | list[_Key] | _Choice:
-    """The conjunction of ``values``: a list when none is a choice, else the product of the choices."""
-    if not any(isinstance(v, _Choice) for v in values):
-        return [key for value in values if isinstance(value, list) for key in value]
-    combined: list[tuple[_Key, ...]] = [()]
-    for value in values:
-        options = _alternatives(value)
-        if len(combined) * len(options) > MAX_DNF_TERMS:
-            raise GroundingError(
-                f"action {schema.name!r}: a disjunctive precondition has more than {MAX_DNF_TERMS:,} alternatives"
-            )
-        combined = [left + right for left in combined for right in options]
-    return _choice(combined, schema)
-
-
-def _disjoined(values: Sequence[list[_Key] | _Choice], schema: ActionSchema) -> bool | list[_Key] | _Choice:
-    """The disjunction of ``values`` (each a conjunction or a choice)."""
-    if len(values) == 1:
-        return values[0]
-    return _choice((a for value in values for a in _alternatives(value)), schema)
-
-
 class _UndefinedCost(Exception):
     """A ground action's cost names a function value that :init does not define."""
 
@@ -1163,8 +1130,8 @@ def _getter(terms: Iterable[str]) -> Callable[[Binding], tuple[str, ...]]:
 def _atom_op(atom: AtomFormula, positive: bool, intern: Callable[[_Key, _Key], _Key]) -> _Op:
     predicate, args = atom.predicate, _getter(atom.terms)
     if positive:
-        return lambda binding, add, delete, costs: add.add(intern(key := (predicate, args(binding)), key))
-    return lambda binding, add, delete, costs: delete.add(intern(key := (predicate, args(binding)), key))
+        return lambda binding, effects: effects.add.add(intern(key := (predicate, args(binding)), key))
+    return lambda binding, effects: effects.delete.add(intern(key := (predicate, args(binding)), key))
 
 
 def _fact_check(predicate: str, terms: tuple[str, ...], facts: set[_Key], positive: bool) -> _Check:
