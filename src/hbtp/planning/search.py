@@ -237,6 +237,9 @@ class _Search:
         self.watch = watch
         self.space = len(actions)
         self.partners = mutexes.partners if mutexes is not None else None
+        # Per action, the atoms mutex with one of its preconditions (everything when two of them are).
+        self.clashing: dict[int, frozenset[int]] = {}
+        self.everything = frozenset(range(len(task.atoms)))
         self.nogoods = mutexes.nogoods_by_atom if mutexes is not None and mutexes.nogoods else None
         self.s0 = task.initial_state
         costs = config.costs
@@ -304,6 +307,15 @@ class _Search:
         entries.sort()
         self.adders[atom] = entries
         return entries
+
+    def clashing_atoms(self, action: GroundAction) -> frozenset[int]:
+        """The atoms that a condition regressed through ``action`` may not keep: those mutex with a
+        precondition (a condition holds no mutex pair, so the precondition's own atoms never clash
+        with what the condition keeps); :attr:`everything` when the precondition holds a mutex pair."""
+        assert self.partners is not None
+        partners = self.partners
+        found = frozenset().union(*(partners[atom] for atom in action.pre))
+        return found if found.isdisjoint(action.pre) else self.everything
 
     def priority(self, condition: frozenset[int], g: Number) -> Number:
         if self.astar and self.heuristic is not None:
@@ -458,11 +470,19 @@ class _Search:
         """Regress ``condition`` through ``action`` and queue the result unless it is pruned."""
         if not condition.isdisjoint(action.delete):
             return
+        if self.partners is not None:
+            clashing = self.clashing.get(action.index)
+            if clashing is None:
+                clashing = self.clashing[action.index] = self.clashing_atoms(action)
+            if not clashing.isdisjoint(condition) and (
+                clashing is self.everything or not clashing & condition <= action.add
+            ):
+                self.pruned_mutex += 1
+                return
         rest = condition - action.add
-        pre = action.pre
-        result = pre | rest
-        partners = self.partners
-        if partners is not None and _clashes(pre, rest, partners, self.nogoods, result):
+        result = action.pre | rest
+        nogoods = self.nogoods
+        if nogoods is not None and _completes_nogood(rest, nogoods, result):
             self.pruned_mutex += 1
             return
         slot = self.path_index.get(action.index)
@@ -542,20 +562,11 @@ class _Search:
         return tuple(path)
 
 
-def _clashes(
-    pre: frozenset[int],
-    rest: frozenset[int],
-    partners: Sequence[frozenset[int]],
-    nogoods: Sequence[Sequence[frozenset[int]]] | None,
-    child: frozenset[int],
-) -> bool:
-    """Whether the regressed condition holds mutually exclusive literals (only new pairs are checked)."""
-    for atom in pre:
-        if atom not in rest and not partners[atom].isdisjoint(child):
-            return True
-    if nogoods is not None:
-        for atom in child:
-            for nogood in nogoods[atom]:
-                if nogood <= child and not nogood <= rest:
-                    return True
+def _completes_nogood(rest: frozenset[int], nogoods: Sequence[Sequence[frozenset[int]]], child: frozenset[int]) -> bool:
+    """Whether the regressed condition holds a nogood that the condition it came from (whose
+    ``rest`` it keeps) did not."""
+    for atom in child:
+        for nogood in nogoods[atom]:
+            if nogood <= child and not nogood <= rest:
+                return True
     return False
