@@ -18,10 +18,13 @@ or they mention; :func:`action_bindings` lists the ground actions and their cost
 
 Before enumerating, the number of ground actions of each schema is bounded from above (the join's
 size: per static atom, at most its number of facts; per remaining parameter, the objects of its
-type). A task whose bound exceeds ``max_ground_actions`` (by default ``$HBTP_MAX_GROUND_ACTIONS``, else
-:data:`MAX_GROUND_ACTIONS`; a ground action takes about 1-2 KB of memory) is refused with a one-line
-:class:`~hbtp.errors.GroundingError` before any memory is spent (with ``only``, the bound applies to
-the actions kept instead); a ``deadline`` stops grounding with :class:`~hbtp.deadline.TimeLimitReached`.
+type). When the bound exceeds ``max_ground_actions`` (by default ``$HBTP_MAX_GROUND_ACTIONS``, else
+:data:`MAX_GROUND_ACTIONS`; a ground action takes about 1-2 KB of memory), only the actions reachable
+from s0 are grounded (:meth:`_Grounder.reach`: the positive fluent atoms of each precondition are
+joined with the fluent facts reached so far, round after round, as Fast Downward's translator
+instantiates), and a task that still has more is refused with a one-line
+:class:`~hbtp.errors.GroundingError` (with ``only``, the limit applies to the actions kept instead);
+a ``deadline`` stops grounding with :class:`~hbtp.deadline.TimeLimitReached`.
 """
 
 from __future__ import annotations
@@ -96,6 +99,10 @@ ActionBindings = dict[str, tuple[tuple[tuple[str, ...], int], ...]]
 MAX_GROUND_ACTIONS = 1_000_000
 #: The most disjuncts a static precondition or ``when`` guard may have once put in disjunctive normal form.
 MAX_DNF_TERMS = 10_000
+#: With the fallback to relaxed reachability, the units of join work allowed per allowed action.
+REACH_WORK = 100
+#: ... counted for no fewer allowed actions than this.
+REACH_FLOOR = 100_000
 _PHASE = "grounding"
 LIMIT_VARIABLE = "HBTP_MAX_GROUND_ACTIONS"
 _TICKS = 4096  # units of work between two deadline checks
@@ -166,12 +173,13 @@ def ground(
     if max_ground_actions < 1:
         raise InputError(f"max_ground_actions must be at least 1, not {max_ground_actions}")
     grounder = _Grounder(domain, problem, frozenset(keep_fluent), deadline, reachable_only)
-    if only is None:
-        grounder.check_size(max_ground_actions)
-    else:
+    refusal = grounder.check_size(max_ground_actions) if only is None else None
+    if only is not None:
         grounder.select(only, max_ground_actions)
     stopped = ""
     try:
+        if refusal is not None:
+            grounder.reach(max_ground_actions, refusal)
         task = grounder.run(name or problem.name)
     except TimeLimitReached as stop:
         stopped = str(stop)
@@ -311,6 +319,10 @@ class _Grounder:
         reachable_only: bool = False,
     ) -> None:
         self.reachable_only = reachable_only
+        # With reach(): the fluent facts reached from s0 by predicate, joined like static facts.
+        self.reached: dict[str, list[tuple[str, ...]]] | None = None
+        self.work_left = 0
+        self.estimate_text = ""
         self.problem = problem
         self.deadline = deadline
         self.ticks = 0
@@ -347,6 +359,13 @@ class _Grounder:
         if self.ticks >= _TICKS:
             self.ticks = 0
             self.check_deadline()
+            if self.reached is not None:
+                self.work_left -= _TICKS
+                if self.work_left < 0:
+                    raise GroundingError(
+                        f"grounding would create {self.estimate_text}; grounding only what is reachable "
+                        f"from s0 took more than {REACH_WORK} units of work per allowed action"
+                    )
 
     def check_deadline(self) -> None:
         if self.deadline is not None:
@@ -391,21 +410,69 @@ class _Grounder:
                 size *= count
         return size
 
-    def check_size(self, limit: int) -> None:
-        """Refuse a task whose estimated number of ground actions exceeds ``limit``."""
+    def check_size(self, limit: int) -> str | None:
+        """Why the estimated number of ground actions exceeds ``limit`` (``None`` when it does not)."""
         estimates = [(self.estimate(schema), -index) for index, schema in enumerate(self.domain.actions)]
         total = sum(estimate for estimate, _ in estimates)
         if total <= limit:
-            return
+            return None
         largest, index = max(estimates)
         schema = self.domain.actions[-index]
         counts = " x ".join(str(len(self.domain_of(p))) for p in schema.parameters) or "1"
         variables = " ".join(p.name for p in schema.parameters)
-        raise GroundingError(
-            f"grounding would create up to {total:,} actions, more than the limit of {limit:,} "
+        return (
+            f"up to {total:,} actions, more than the limit of {limit:,} "
             f"(max_ground_actions, or {LIMIT_VARIABLE} for the command line): {schema.name}({variables}) "
             f"alone may have {largest:,} ({counts} candidate objects)"
         )
+
+    def reach(self, limit: int, estimate: str) -> None:
+        """Ground only what relaxed reachability from s0 allows, as Fast Downward's translator does:
+        the positive fluent atoms of a precondition are joined with the facts reached so far, and
+        their actions' adds are reached in turn, until nothing new is. Then :meth:`run` builds the
+        actions so joined, at most ``limit`` of them, within :data:`REACH_WORK` units of join work per
+        allowed action (at least :data:`REACH_FLOOR` allowed; ``estimate``, the static bound that was
+        too large, is named in the error)."""
+        log.info("static facts allow %s; grounding only the actions reachable from s0", estimate)
+        self.reached = {}
+        self.work_left = REACH_WORK * max(limit, REACH_FLOOR)
+        self.estimate_text = estimate
+        self.kept_limit = limit
+        for key in sorted(self.initial):
+            self.reached.setdefault(key[0], []).append(key[1])
+        known = set(self.initial)
+        rounds = 0
+        while True:
+            rounds += 1
+            self.kept = 0
+            new: set[_Key] = set()
+            for schema in self.domain.actions:
+                self._reach_schema(schema, known, new)
+            if not new:
+                break
+            for key in sorted(new):
+                known.add(key)
+                self.reached.setdefault(key[0], []).append(key[1])
+            self.indexes = {k: v for k, v in self.indexes.items() if k[0] not in self.fluent}
+        self.kept = 0
+        log.debug(
+            "relaxed reachability: %d fluent atoms in %d rounds, %d units of work left",
+            len(known),
+            rounds,
+            self.work_left,
+        )
+
+    def _reach_schema(self, schema: ActionSchema, known: set[_Key], new: set[_Key]) -> None:
+        """Add to ``new`` what the ground actions of ``schema`` joined so far add beyond ``known``,
+        counting them against the limit (those that change nothing are not counted)."""
+        for key, found in self.build(schema, costs_only=False, warn=False):
+            changes = False
+            for options, add, delete, _cost in found:
+                if delete or any(not add.issubset(pre) for pre in options):
+                    changes = True
+                new.update(atom for atom in add if atom not in known)
+            if changes:
+                self._count_kept(schema, key)
 
     def select(self, only: ActionFilter, limit: int) -> None:
         """Build only the ground actions ``only`` accepts, refusing more than ``limit`` of them."""
@@ -415,8 +482,9 @@ class _Grounder:
     def _count_kept(self, schema: ActionSchema, key: tuple[str, ...]) -> None:
         self.kept += 1
         if self.kept > self.kept_limit:
+            which = "selected actions" if self.reached is None else "actions reachable from s0"
             raise GroundingError(
-                f"grounding the selected actions would create more than the limit of {self.kept_limit:,} "
+                f"grounding the {which} would create more than the limit of {self.kept_limit:,} "
                 f"(max_ground_actions, or {LIMIT_VARIABLE} for the command line): "
                 f"{Atom(schema.name, key)} is action {self.kept:,}"
             )
@@ -493,7 +561,7 @@ class _Grounder:
     def _ground_schema(self, schema: ActionSchema) -> Iterator[_Grounded]:
         if isinstance(self.only, Selection) and schema.name not in self.only.predicates:
             return
-        counting = self.only is not None
+        counting = self.only is not None or self.reached is not None
         names = self._alternative_names(schema)
         for key, found in self.build(schema, costs_only=False):
             number = 0
@@ -523,7 +591,7 @@ class _Grounder:
                 )
         return names
 
-    def build(self, schema: ActionSchema, costs_only: bool) -> Iterator[_Built]:
+    def build(self, schema: ActionSchema, costs_only: bool, warn: bool = True) -> Iterator[_Built]:
         """The ground actions of ``schema``, per binding: its arguments and its variants
         (:func:`~hbtp.domains.alternatives.variants`), each with its precondition's alternatives, add,
         delete and cost; those whose cost is undefined are left out with a warning. With
@@ -549,7 +617,7 @@ class _Grounder:
                     if not isinstance(value, bool)
                 ],
             )
-        if dropped:
+        if dropped and warn:
             # Fast Downward's translator only instantiates reachable actions, and fails on one whose cost
             # is undefined; hbtp grounds from static facts alone, so it drops them (elevators' slow lifts).
             log.warning(
@@ -628,9 +696,13 @@ class _Grounder:
         static_parts, fluent_parts = self._split_precondition(schema.precondition)
         names = tuple(p.name for p in schema.parameters)
         outer = frozenset(names)
+        static = _dnf_checked(And(tuple(static_parts)), schema)
+        if self.reached is not None:  # join the positive fluent atoms with the facts reached
+            joined = [_Literal(part, True) for part in fluent_parts if isinstance(part, AtomFormula)]
+            static = [[*term, *joined] for term in static]
         return _Schema(
             names=names,
-            static=_dnf_checked(And(tuple(static_parts)), schema),
+            static=static,
             fluent=tuple(self._compile_fluent(part, schema) for part in fluent_parts),
             ops=tuple(self._compile_effect(schema.effect, schema, outer, False)),
             cost_ops=tuple(self._compile_effect(schema.effect, schema, outer, True)),
@@ -826,10 +898,16 @@ class _Grounder:
         index = self.indexes.get((predicate, positions))
         if index is None:
             index = {}
-            for fact in self.static_index.get(predicate, ()):
+            for fact in self._facts(predicate):
                 index.setdefault(tuple([fact[i] for i in positions]), []).append(fact)
             self.indexes[predicate, positions] = index
         return index
+
+    def _facts(self, predicate: str) -> Sequence[tuple[str, ...]]:
+        """The facts a join step over ``predicate`` ranges over: static ones, or fluent ones reached."""
+        if predicate in self.fluent:
+            return self.reached.get(predicate, ()) if self.reached is not None else ()
+        return self.static_index.get(predicate, ())
 
     def _plan(
         self, term: list[_Literal], params: tuple[TypedName, ...], start: Binding, allowed: frozenset[str] | None
@@ -857,7 +935,7 @@ class _Grounder:
             if left != right:
                 bound.add(equal.right if left else equal.left)
         positives = [lit.formula for lit in term if lit.positive and isinstance(lit.formula, AtomFormula)]
-        positives.sort(key=lambda atom: len(self.static_index.get(atom.predicate, ())))
+        positives.sort(key=lambda atom: len(self._facts(atom.predicate)))
         pending = [self._literal_check(lit) for lit in term if not lit.positive or isinstance(lit.formula, Equals)]
         joined = bound | {t for atom in positives for t in atom.terms if is_variable(t)}
         unique = len({p.name for p in params}) == len(params)
