@@ -83,6 +83,11 @@ class RandomConditional:
 
     def _when(self, variables: list[str]) -> When:
         rng = self.rng
+        if rng.random() < 0.25:  # delete p if it holds, or add p if it does not (no variant needed)
+            atom = self._atom(variables)
+            holds = rng.random() < 0.5
+            condition = ("and", [atom if holds else ("not", atom)])
+            return condition, [(holds, atom[1], atom[2])], rng.choice([0, 0, 2]) if self.conditional_costs else 0
         parts = [self._literal(variables) for _ in range(rng.randint(1, 2))]
         condition = (rng.choice(["and", "or"]), parts)
         body = [self._effect_literal(variables) for _ in range(rng.randint(1, 2))]

@@ -226,7 +226,7 @@ def test_validate_optimal_on_pddl_files_uses_fast_downwards_own_translator(tmp_p
     assert result.exception is None, result.output
     assert result.return_value == 0
     document = json.loads(result.output)
-    assert document["summary"] == {"instances": 2, "mismatches": 0}
+    assert document["summary"] == {"instances": 2, "mismatches": 0, "undecided": 0}
     for row in document["rows"]:
         assert row["match"], row
         assert row["tree_verified"], row
@@ -243,3 +243,17 @@ def test_pddl_files_go_without_scenarios(tmp_path: Path) -> None:
     result = CliRunner().invoke(validate_optimal, argv, standalone_mode=False)
     assert isinstance(result.exception, InputError)
     assert "without --scenario" in str(result.exception)
+
+
+def test_a_file_row_that_fast_downward_did_not_decide_reads_undecided_not_mismatch() -> None:
+    from hbtp.cli.validate_command import _file_line
+
+    row = {
+        "instance": "p01.pddl", "obtea_cost": 12, "obtea_status": "solved", "obtea_time_s": 6.9,
+        "tree_verified": True, "fd_cost": None, "fd_status": "timeout", "fd_time_s": 59.3,
+        "grounded_actions": 241, "relevant_actions": 241, "fd_operators": 241, "ground_ratio": 1.0,
+        "relevant_ratio": 1.0, "match": False, "decided": False,
+    }  # fmt: skip
+    assert "  undecided  " in _file_line(row)
+    assert "  MISMATCH  " in _file_line({**row, "fd_cost": 11, "fd_status": "optimal", "decided": True})
+    assert "  match  " in _file_line({**row, "fd_cost": 12, "fd_status": "optimal", "decided": True, "match": True})

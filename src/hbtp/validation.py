@@ -538,6 +538,7 @@ def compare_files(domain_file: Path, problem_file: Path, *, time_limit: float = 
         "ground_ratio": round(actions / fd.operators, 3) if fd.operators else None,
         "relevant_ratio": round(relevant / fd.operators, 3) if fd.operators else None,
         "match": decided_both and cost == fd.cost and (cost is None or tree_ok),
+        "decided": decided_both,
         **({"fd_message": fd.message} if fd.message else {}),
     }
 

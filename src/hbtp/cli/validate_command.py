@@ -35,7 +35,7 @@ def _cost(value: int | None, status: str) -> str:
 
 def _line(row: dict[str, Any]) -> str:
     """One record: ``robothow-small 3 OBTEA 82 (unpruned 82) FD 82 match 0.4 ms / 0.34 s``."""
-    verdict = "match" if row["match"] else "MISMATCH"
+    verdict = _verdict(row["match"], decided(row))
     note = "  declared mutexes change the optimum" if row["mutexes_change_optimum"] else ""
     return (
         f"{row['scenario']:15} {row['record']:>4}  "
@@ -46,6 +46,14 @@ def _line(row: dict[str, Any]) -> str:
         f"FD {row['fd_time_s']:.2f} s  {row['goal']}{note}"
         + (f"\n    {row['fd_message']}" if "fd_message" in row and not row["match"] else "")
     )
+
+
+def _verdict(match: bool, both_decided: bool) -> str:
+    """``match``; ``MISMATCH`` when both answered differently; ``undecided`` when one did not answer
+    (a time limit or an error: not checked, so not a match either)."""
+    if match:
+        return "match"
+    return "MISMATCH" if both_decided else "undecided"
 
 
 def summarize(rows: Iterable[dict[str, Any]]) -> dict[str, Any]:
@@ -172,7 +180,7 @@ def validate_optimal(
 
 def _file_line(row: dict[str, Any]) -> str:
     """``p01.pddl  OBTEA 11 (0.02 s)  FD 11 (0.31 s)  match  ground 34 / FD 34 (1.00x)``."""
-    verdict = "match" if row["match"] else "MISMATCH"
+    verdict = _verdict(row["match"], row["decided"])
     ratio = (
         f"{row['ground_ratio']:.2f}x, relevant {row['relevant_ratio']:.2f}x" if row["ground_ratio"] is not None else "-"
     )
@@ -200,12 +208,17 @@ def _validate_files(
                 out.flush()
             if not as_json:
                 click.echo(_file_line(row))
-    mismatches = sum(not row["match"] for row in rows)
+    unmatched = sum(not row["match"] for row in rows)
+    undecided = sum(not row["decided"] for row in rows)
     if as_json:
-        echo_json({"summary": {"instances": len(rows), "mismatches": mismatches}, "rows": rows})
+        summary = {"instances": len(rows), "mismatches": unmatched - undecided, "undecided": undecided}
+        echo_json({"summary": summary, "rows": rows})
     else:
-        click.echo(f"{len(rows)} instance(s), {len(rows) - mismatches} match(es), {mismatches} mismatch(es)")
-    return 0 if mismatches == 0 else 1
+        click.echo(
+            f"{len(rows)} instance(s), {len(rows) - unmatched} match(es), {unmatched - undecided} mismatch(es), "
+            f"{undecided} undecided"
+        )
+    return 0 if unmatched == 0 else 1
 
 
 __all__ = ["summarize", "validate_optimal"]

@@ -14,7 +14,10 @@ evaluated in the state before the action, as PDDL's semantics say, so in any sta
 variant of an applicable action is applicable, and it changes the state as the action does.
 Combinations whose precondition asks for an atom and its negation are left out, so a case whose
 condition the precondition already decides gives one variant, not two; so is a case that only does
-what the action does anyway.
+what the action does anyway. ``(when (p) (not (p)))`` (delete ``p`` if it holds, as airport's
+takeoff and schedule's machines do for every segment or surface) is the plain delete of ``p``, and
+``(when (not (p)) (p))`` the plain add of ``p`` when no other effect may delete it: these need no
+variant at all.
 """
 
 from __future__ import annotations
@@ -106,25 +109,22 @@ def add_case(effects: Effects, holds: Value, fails: Value, body: Effects, action
     """Record ``(when condition body)`` in ``effects``, given the condition (``holds``) and its
     negation (``fails``) under the binding; the cases nested in ``body`` become cases of
     ``effects`` whose condition is conjoined with this one."""
-    if holds is False:
-        return
+    holds, fails = _consistent(holds, action), _consistent(fails, action)
+    if holds is False or fails is True:
+        return  # it never fires
     nested, body.cases = body.cases, []
-    if holds is True:
+    if holds is True or fails is False:  # it always fires
         effects.add |= body.add
         effects.delete |= body.delete
         effects.costs += body.costs
-        effects.cases += nested
+        for case in nested:
+            add_case(effects, case.holds, case.fails, case.body, action)
         return
-    assert not isinstance(fails, bool), "a condition over fluents is decided by neither value"
     if body.add or body.delete or body.costs:
         effects.cases.append(Case(holds, fails, body))
     for case in nested:
         both = conjoined([holds, case.holds], action)
-        if both is not False:
-            either = disjoined([fails, case.fails], action)
-            assert not isinstance(both, bool)
-            assert not isinstance(either, bool)
-            effects.cases.append(Case(both, either, case.body))
+        add_case(effects, both, disjoined([fails, case.fails], action), case.body, action)
 
 
 def variants(precondition: list[Key] | Choice, effects: Effects, action: str) -> list[tuple[Value, Effects]]:
@@ -132,7 +132,7 @@ def variants(precondition: list[Key] | Choice, effects: Effects, action: str) ->
     precondition conjoined with each case's condition or its negation, and the effects then (the
     cases that fail first, so with no case, or none that can hold, the action's own effects)."""
     found: list[tuple[Value, tuple[Effects, ...]]] = [(_consistent(precondition, action), ())]
-    for case in effects.cases:
+    for case in _unconditional(effects):
         body = case.body
         if not body.costs and body.add <= effects.add and body.delete <= effects.delete:
             continue  # it does what the action does anyway
@@ -149,6 +149,32 @@ def variants(precondition: list[Key] | Choice, effects: Effects, action: str) ->
             raise _too_many(action)
         found = extended
     return [(value, _merged(effects, bodies)) for value, bodies in found if value is not False]
+
+
+def _unconditional(effects: Effects) -> list[Case]:
+    """``effects``' cases once the effects that need no condition are moved to ``effects`` itself:
+    ``(when (p) (not (p)))`` deletes ``p`` whatever holds, and ``(when (not (p)) (p))`` adds it
+    whatever holds unless another effect may delete it (then the add, which wins, would change what
+    happens when ``p`` holds). Cases left with no effect are dropped."""
+    deleted = effects.delete.union(*(case.body.delete for case in effects.cases))
+    kept: list[Case] = []
+    for case in effects.cases:
+        body = case.body
+        if isinstance(case.holds, list) and len(case.holds) == 1:
+            ((predicate, args),) = case.holds
+            if not predicate.startswith(NEGATION) and (predicate, args) in body.delete:
+                effects.delete.add((predicate, args))
+                body = Effects(body.add, body.delete - {(predicate, args)}, body.costs)
+            elif predicate.startswith(NEGATION):
+                plain = (predicate[len(NEGATION) :], args)
+                if plain in body.add and plain not in deleted:
+                    effects.add.add(plain)
+                    body = Effects(body.add - {plain}, body.delete, body.costs)
+            if not (body.add or body.delete or body.costs):
+                continue
+            case = Case(case.holds, case.fails, body)
+        kept.append(case)
+    return kept
 
 
 def _merged(effects: Effects, bodies: tuple[Effects, ...]) -> Effects:
