@@ -295,8 +295,9 @@ def test_the_plan_command_solves_briefcase(tmp_path: Path) -> None:
 def test_too_many_combinations_are_refused_in_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     portables = MAX_ALTERNATIVES.bit_length()  # 2**portables variants of one move
     domain, problem = _briefcase(tmp_path, portables)
-    with pytest.raises(GroundingError, match=f"more than {MAX_ALTERNATIVES:,} alternatives"):
+    with pytest.raises(GroundingError, match=f"more than {MAX_ALTERNATIVES:,} alternatives") as info:
         load_pddl_scenario(domain, problem, ScenarioOptions(name="b"))
+    assert str(info.value).startswith(f"{domain}:5: action 'move': ")
     tree = tmp_path / "tree.json"
     assert main(["plan", "--pddl", str(domain), str(problem), "-o", str(tree)]) == 2
     assert capsys.readouterr().err.strip().count("\n") == 0

@@ -195,8 +195,12 @@ def _consistent(value: Value, action: str) -> Value:
     return value
 
 
+class TooManyAlternatives(GroundingError):
+    """One binding of an action has more than :data:`MAX_ALTERNATIVES` alternatives."""
+
+
 def _too_many(action: str) -> GroundingError:
-    return GroundingError(
+    return TooManyAlternatives(
         f"action {action!r}: its disjunctive precondition or conditional effects over fluents give more than "
         f"{MAX_ALTERNATIVES:,} alternatives for one binding"
     )

@@ -38,7 +38,17 @@ from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 from hbtp.deadline import Deadline, TimeLimitReached
-from hbtp.domains.alternatives import Choice, Effects, Value, add_case, alternatives, conjoined, disjoined, variants
+from hbtp.domains.alternatives import (
+    Choice,
+    Effects,
+    TooManyAlternatives,
+    Value,
+    add_case,
+    alternatives,
+    conjoined,
+    disjoined,
+    variants,
+)
 from hbtp.domains.lifted import (
     MAX_ACTION_COST,
     OBJECT_TYPE,
@@ -597,6 +607,13 @@ class _Grounder:
         delete and cost; those whose cost is undefined are left out with a warning. With
         ``costs_only``, effects are not computed and each binding has one variant, whose cost is the
         action's when no conditional effect over fluents fires."""
+        try:
+            yield from self._build(schema, costs_only, warn)
+        except TooManyAlternatives as error:
+            source = self.domain.source
+            raise GroundingError(f"{source}:{schema.line}: {error}" if source and schema.line else str(error)) from None
+
+    def _build(self, schema: ActionSchema, costs_only: bool, warn: bool) -> Iterator[_Built]:
         compiled = self._compile(schema)
         ops = compiled.cost_ops if costs_only else compiled.ops
         dropped: list[str] = []
