@@ -110,6 +110,22 @@ def test_pddl_runs_verifies_flags_the_wrong_reference_and_resumes(
     assert (out / "results.jsonl").read_text(encoding="utf-8") == before
 
 
+def test_pddl_plans_a_goal_with_negative_literals(tmp_path: Path) -> None:
+    """A :goal with (not ...) needs the negated twins, as `hbtp plan --pddl` gives them."""
+    root = tmp_path / "bench" / "switch"
+    root.mkdir(parents=True)
+    (root / "domain.pddl").write_text(SWITCH_DOMAIN, encoding="utf-8")
+    (root / "n1.pddl").write_text(
+        "(define (problem n1) (:domain switch) (:objects l0 l1 - lamp) (:init (off l0) (off l1))"
+        " (:goal (and (on l0) (not (off l1)))))",
+        encoding="utf-8",
+    )
+    out = tmp_path / "out"
+    assert main(["bench", "pddl", str(root.parent), *INLINE, "-o", str(out)]) == EXIT_OK
+    (row,) = rows(out / "results.jsonl")
+    assert (row["status"], row["cost"], row["verified"]) == ("solved", 2, True)
+
+
 def test_pddl_bad_folder_is_a_one_line_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     for folder in (tmp_path / "missing", tmp_path):
         assert main(["bench", "pddl", str(folder), *INLINE, "-o", str(tmp_path / "out")]) == EXIT_INPUT

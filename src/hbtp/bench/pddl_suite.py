@@ -185,8 +185,9 @@ def run_one(run: PddlRun) -> dict[str, Any]:
         options = ScenarioOptions(name=f"{run.instance.domain}/{run.instance.name}")
         deadline = Deadline(run.time_limit)
         instance = run.instance
-        scenario = load_pddl_scenario(instance.domain_file, instance.problem_file, options, deadline=deadline)
-        goal = scenario.task.resolve_goal(scenario.problem_goal())
+        loaded = load_pddl_scenario(instance.domain_file, instance.problem_file, options, deadline=deadline)
+        # With the negated twins of the goal's negative literals when it has some.
+        scenario, goal = loaded.resolve_goal(loaded.problem_goal())
     except HbtpError as error:  # a time limit while loading, a file hbtp cannot read or ground
         load = time.perf_counter() - started
         status = "load-timeout" if isinstance(error, TimeLimitReached) else "load-error"
