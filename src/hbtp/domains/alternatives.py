@@ -142,7 +142,7 @@ def variants(precondition: list[Key] | Choice, effects: Effects, action: str) ->
                 continue
             assert value is not True
             for condition, fired in ((case.fails, bodies), (case.holds, (*bodies, case.body))):
-                both = _consistent(conjoined([value, condition], action), action)
+                both = _conjoined_consistent(value, condition, action)
                 if both is not False:
                     extended.append((both, fired))
         if len(extended) > MAX_ALTERNATIVES:
@@ -186,6 +186,24 @@ def _merged(effects: Effects, bodies: tuple[Effects, ...]) -> Effects:
         merged.delete |= body.delete
         merged.costs += body.costs
     return merged
+
+
+def _conjoined_consistent(value: list[Key] | Choice, condition: list[Key] | Choice, action: str) -> Value:
+    """``value`` and ``condition`` (each consistent) conjoined, ``False`` when they contradict; two
+    conjunctions, the usual case, are checked literal by literal."""
+    if isinstance(value, list) and isinstance(condition, list):
+        present = set(value)
+        if any(_opposite(key) in present for key in condition):
+            return False
+        return value + [key for key in condition if key not in present]
+    return _consistent(conjoined([value, condition], action), action)
+
+
+def _opposite(key: Key) -> Key:
+    predicate, args = key
+    if predicate.startswith(NEGATION):
+        return predicate[len(NEGATION) :], args
+    return NEGATION + predicate, args
 
 
 def _consistent(value: Value, action: str) -> Value:

@@ -451,19 +451,27 @@ class _Grounder:
         for key in sorted(self.initial):
             self.reached.setdefault(key[0], []).append(key[1])
         known = set(self.initial)
+        # A schema's bindings change only when a predicate it joins gained facts in the last round.
+        joined = {schema.name: self._joined_predicates(schema) for schema in self.domain.actions}
+        counted: dict[str, int] = {}  # per schema, its ground actions in its last join
+        changed: set[str] | None = None  # None in the first round: every schema is joined
         rounds = 0
         while True:
             rounds += 1
-            self.kept = 0
             new: set[_Key] = set()
             for schema in self.domain.actions:
-                self._reach_schema(schema, known, new)
+                if changed is None or joined[schema.name] & changed:
+                    self.kept = sum(n for name, n in counted.items() if name != schema.name)
+                    before = self.kept
+                    self._reach_schema(schema, known, new)
+                    counted[schema.name] = self.kept - before
             if not new:
                 break
             for key in sorted(new):
                 known.add(key)
                 self.reached.setdefault(key[0], []).append(key[1])
-            self.indexes = {k: v for k, v in self.indexes.items() if k[0] not in self.fluent}
+            changed = {key[0] for key in new}
+            self.indexes = {k: v for k, v in self.indexes.items() if k[0] not in changed}
         self.kept = 0
         log.debug(
             "relaxed reachability: %d fluent atoms in %d rounds, %d units of work left",
@@ -471,6 +479,11 @@ class _Grounder:
             rounds,
             self.work_left,
         )
+
+    def _joined_predicates(self, schema: ActionSchema) -> set[str]:
+        """The fluent predicates whose facts a reaching join of ``schema`` ranges over."""
+        _, fluent_parts = self._split_precondition(schema.precondition)
+        return {part.predicate for part in fluent_parts if isinstance(part, AtomFormula)}
 
     def _reach_schema(self, schema: ActionSchema, known: set[_Key], new: set[_Key]) -> None:
         """Add to ``new`` what the ground actions of ``schema`` joined so far add beyond ``known``,
