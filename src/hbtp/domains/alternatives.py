@@ -51,6 +51,12 @@ class Effects:
     costs: list[int] = field(default_factory=list)
     cases: list[Case] = field(default_factory=list)
 
+    def absorb(self, other: Effects) -> None:
+        """Do what ``other`` does too (its adds, deletes and costs; not its cases)."""
+        self.add |= other.add
+        self.delete |= other.delete
+        self.costs += other.costs
+
 
 @dataclass(frozen=True, slots=True)
 class Case:
@@ -71,7 +77,7 @@ def choice(options: Iterable[tuple[Key, ...]], action: str) -> Value:
     kept: list[frozenset[Key]] = []
     for option in options:
         literals = frozenset(option)
-        if any((NEGATION + p, args) in literals for p, args in literals if not p.startswith(NEGATION)):
+        if any(_opposite(key) in literals for key in literals):
             continue
         if literals not in kept:
             kept.append(literals)
@@ -114,9 +120,7 @@ def add_case(effects: Effects, holds: Value, fails: Value, body: Effects, action
         return  # it never fires
     nested, body.cases = body.cases, []
     if holds is True or fails is False:  # it always fires
-        effects.add |= body.add
-        effects.delete |= body.delete
-        effects.costs += body.costs
+        effects.absorb(body)
         for case in nested:
             add_case(effects, case.holds, case.fails, case.body, action)
         return
@@ -127,28 +131,30 @@ def add_case(effects: Effects, holds: Value, fails: Value, body: Effects, action
         add_case(effects, both, disjoined([fails, case.fails], action), case.body, action)
 
 
-def variants(precondition: list[Key] | Choice, effects: Effects, action: str) -> list[tuple[Value, Effects]]:
+def variants(
+    precondition: list[Key] | Choice, effects: Effects, action: str
+) -> list[tuple[list[Key] | Choice, Effects]]:
     """Per combination of ``effects``' cases that can occur together with ``precondition``, the
     precondition conjoined with each case's condition or its negation, and the effects then (the
     cases that fail first, so with no case, or none that can hold, the action's own effects)."""
-    found: list[tuple[Value, tuple[Effects, ...]]] = [(_consistent(precondition, action), ())]
+    start = _consistent(precondition, action)
+    if isinstance(start, bool):
+        return []  # the precondition asks for an atom and its negation
+    found: list[tuple[list[Key] | Choice, tuple[Effects, ...]]] = [(start, ())]
     for case in _unconditional(effects):
         body = case.body
         if not body.costs and body.add <= effects.add and body.delete <= effects.delete:
             continue  # it does what the action does anyway
-        extended: list[tuple[Value, tuple[Effects, ...]]] = []
+        extended: list[tuple[list[Key] | Choice, tuple[Effects, ...]]] = []
         for value, bodies in found:
-            if value is False:
-                continue
-            assert value is not True
             for condition, fired in ((case.fails, bodies), (case.holds, (*bodies, case.body))):
                 both = _conjoined_consistent(value, condition, action)
-                if both is not False:
+                if not isinstance(both, bool):
                     extended.append((both, fired))
         if len(extended) > MAX_ALTERNATIVES:
             raise _too_many(action)
         found = extended
-    return [(value, _merged(effects, bodies)) for value, bodies in found if value is not False]
+    return [(value, _merged(effects, bodies)) for value, bodies in found]
 
 
 def _unconditional(effects: Effects) -> list[Case]:
@@ -182,9 +188,7 @@ def _merged(effects: Effects, bodies: tuple[Effects, ...]) -> Effects:
         return effects
     merged = Effects(set(effects.add), set(effects.delete), list(effects.costs))
     for body in bodies:
-        merged.add |= body.add
-        merged.delete |= body.delete
-        merged.costs += body.costs
+        merged.absorb(body)
     return merged
 
 

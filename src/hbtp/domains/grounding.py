@@ -483,7 +483,7 @@ class _Grounder:
     def _joined_predicates(self, schema: ActionSchema) -> set[str]:
         """The fluent predicates whose facts a reaching join of ``schema`` ranges over."""
         _, fluent_parts = self._split_precondition(schema.precondition)
-        return {part.predicate for part in fluent_parts if isinstance(part, AtomFormula)}
+        return {part.predicate for part in _reaching_atoms(fluent_parts)}
 
     def _reach_schema(self, schema: ActionSchema, known: set[_Key], new: set[_Key]) -> None:
         """Add to ``new`` what the ground actions of ``schema`` joined so far add beyond ``known``,
@@ -491,8 +491,7 @@ class _Grounder:
         for key, found in self.build(schema, costs_only=False, warn=False):
             changes = False
             for options, add, delete, _cost in found:
-                if delete or any(not add.issubset(pre) for pre in options):
-                    changes = True
+                changes = changes or any(any(_changes(frozenset(pre), add, delete)) for pre in options)
                 new.update(atom for atom in add if atom not in known)
             if changes:
                 self._count_kept(schema, key)
@@ -589,10 +588,9 @@ class _Grounder:
         for key, found in self.build(schema, costs_only=False):
             number = 0
             for options, add, delete, cost in found:
-                deletes = frozenset(delete - add)  # delete, then add: what is added stays
                 for pre in options:
                     needs = frozenset(pre)
-                    adds = frozenset(add) - needs  # adding what the precondition requires changes nothing
+                    adds, deletes = _changes(needs, add, delete)
                     if not adds and not deletes:
                         continue  # an action that changes nothing (Fast Downward drops it too)
                     if counting:
@@ -641,11 +639,7 @@ class _Grounder:
             found = [(pre, effects)] if costs_only or not effects.cases else variants(pre, effects, schema.name)
             yield (
                 key,
-                [
-                    (alternatives(value), done.add, done.delete, self._cost(schema, key, done.costs))
-                    for value, done in found
-                    if not isinstance(value, bool)
-                ],
+                [(alternatives(v), done.add, done.delete, self._cost(schema, key, done.costs)) for v, done in found],
             )
         if dropped and warn:
             # Fast Downward's translator only instantiates reachable actions, and fails on one whose cost
@@ -728,7 +722,7 @@ class _Grounder:
         outer = frozenset(names)
         static = _dnf_checked(And(tuple(static_parts)), schema)
         if self.reached is not None:  # join the positive fluent atoms with the facts reached
-            joined = [_Literal(part, True) for part in fluent_parts if isinstance(part, AtomFormula)]
+            joined = [_Literal(part, True) for part in _reaching_atoms(fluent_parts)]
             static = [[*term, *joined] for term in static]
         return _Schema(
             names=names,
@@ -1141,6 +1135,17 @@ class _Forall:
 
 
 # ======================================================================= helpers
+def _changes(needs: frozenset[_Key], add: set[_Key], delete: set[_Key]) -> tuple[frozenset[_Key], frozenset[_Key]]:
+    """What a ground action really adds and deletes: adding what the precondition requires changes
+    nothing, and what is both deleted and added stays (delete, then add)."""
+    return frozenset(add) - needs, frozenset(delete - add)
+
+
+def _reaching_atoms(fluent_parts: Iterable[Formula]) -> list[AtomFormula]:
+    """The positive fluent atoms of a precondition's conjuncts: what relaxed reachability joins."""
+    return [part for part in fluent_parts if isinstance(part, AtomFormula)]
+
+
 class _UndefinedCost(Exception):
     """A ground action's cost names a function value that :init does not define."""
 
