@@ -17,10 +17,11 @@ values and choices come from a table made once; later rounds update h_max increm
 actions whose cost dropped (only values that go down, in increasing order). The state after a round
 depends only on the atoms the rounds so far cut for (the condition's costliest atom each time, the
 lowest id among ties), so the states are kept in a tree by those atoms, up to a memory budget:
-conditions of one search mostly share their costliest atoms, and reuse each other's rounds. A cut
-is read off the goal zone's achievers when following supporters shows that their precondition
-choices are reached from s0 outside the zone (a forward search from s0 decides otherwise). An action
-without a precondition gets an artificial one that holds in s0.
+conditions of one search mostly share their costliest atoms, and reuse each other's rounds. The cut
+is read off the goal zone's achievers: instead of a forward search from s0 around the zone, each
+precondition choice below the zone's h_max is known to be reached outside it, and the others are
+decided by a short search backwards (:meth:`_Round._cut_actions`). An action without a precondition
+gets an artificial one that holds in s0.
 """
 
 from __future__ import annotations
@@ -63,20 +64,17 @@ class LmCut:
         if deadline is not None:
             deadline.check(_SETUP)
         self.initial = (*sorted(task.initial_state), true)
-        self.hmax, self.value, support = self._explore()
+        self.hmax, self.value = self._explore()
         self.choice = [self._choice(i, self.hmax, self.value[i]) for i in range(len(self.pre))]
         # The states after each sequence of cuts met so far, by the atoms cut for: a condition
         # whose costliest atoms come in the same order as an earlier one's reuses its rounds.
-        self.root = _Step(_Round(self, self.hmax, self.value, self.choice, self.cost, support), 0.0, {})
+        self.root = _Step(_Round(self, self.hmax, self.value, self.choice, self.cost), 0.0, {})
         self.size = 2 * len(self.hmax) + 3 * len(self.pre)  # list slots per kept state
-        self.budget = max(16, len(self.pre) // 8)  # of _Round._zone_achievers
         self.room = _TABLE_SLOTS
 
-    def _explore(self) -> tuple[list[float], list[float], list[int]]:
-        """h_max of every atom from s0 with the original costs, each action's precondition value, and
-        each atom's supporter (the action that gave it its h_max; -1 in s0 or unreachable)."""
+    def _explore(self) -> tuple[list[float], list[float]]:
+        """h_max of every atom from s0 with the original costs, and each action's precondition value."""
         hmax = [_INF] * len(self.users)
-        support = [-1] * len(self.users)
         waiting = [len(p) for p in self.pre]
         value = [_INF] * len(self.pre)
         heap = [(0.0, p) for p in self.initial]
@@ -97,9 +95,8 @@ class LmCut:
                     for q in add[i]:
                         if reached < hmax[q]:
                             hmax[q] = reached
-                            support[q] = i
                             heapq.heappush(heap, (reached, q))
-        return hmax, value, support
+        return hmax, value
 
     def _choice(self, action: int, hmax: Sequence[float], value: float) -> int:
         """The action's precondition choice: its first precondition of the highest h_max (-1: never
@@ -156,44 +153,35 @@ class _Step:
 
 
 class _Round:
-    """The mutable state of one evaluation: h_max, precondition values and choices, costs, and each
-    atom's supporter (an achiever whose precondition value plus cost is the atom's h_max)."""
+    """The mutable state of one evaluation: h_max, precondition values and choices, and costs."""
 
-    __slots__ = ("choice", "cost", "hmax", "lm", "support", "value")
+    __slots__ = ("choice", "cost", "hmax", "lm", "value")
 
-    def __init__(
-        self, lm: LmCut, hmax: list[float], value: list[float], choice: list[int], cost: list[float], support: list[int]
-    ) -> None:
+    def __init__(self, lm: LmCut, hmax: list[float], value: list[float], choice: list[int], cost: list[float]) -> None:
         self.lm = lm
         self.hmax = hmax
         self.value = value
         self.choice = choice
         self.cost = cost
-        self.support = support
 
     def copy(self) -> _Round:
-        return _Round(
-            self.lm, list(self.hmax), list(self.value), list(self.choice), list(self.cost), list(self.support)
-        )
+        return _Round(self.lm, list(self.hmax), list(self.value), list(self.choice), list(self.cost))
 
     def cut(self, top: int) -> float:
         """Find the cut for the goal's costliest atom ``top``, take its cost off its actions, update
         h_max, and return that cost."""
         zone = self._goal_zone(top)
-        cut = self._zone_achievers(zone, self.hmax[top])
-        if cut is None:
-            cut = self._cut_actions(zone)
+        cut = self._cut_actions(zone, self.hmax[top])
         cost = self.cost
         m = min(cost[i] for i in cut)
         changed: list[tuple[float, int]] = []
-        hmax, value, add, support = self.hmax, self.value, self.lm.add, self.support
+        hmax, value, add = self.hmax, self.value, self.lm.add
         for i in cut:
             cost[i] -= m
             reached = value[i] + cost[i]
             for q in add[i]:
                 if reached < hmax[q]:
                     hmax[q] = reached
-                    support[q] = i
                     changed.append((reached, q))
         heapq.heapify(changed)
         self._lower(changed)
@@ -214,81 +202,78 @@ class _Round:
                         stack.append(p)
         return zone
 
-    def _zone_achievers(self, zone: set[int], top: float) -> list[int] | None:
+    def _cut_actions(self, zone: set[int], top: float) -> list[int]:
         """The cut, found from the zone's achievers: an achiever is in it when its precondition
-        choice is outside the zone and reached from s0 without entering it, which holds for every
-        atom of h_max below the zone's (``top``: its supporters' chain from s0 stays below), and is
-        shown for the others by following their supporters down to one. ``None`` when a chain meets
-        the zone (the full search of :meth:`_cut_actions` decides then)."""
-        achievers, choice, hmax, support = self.lm.achievers, self.choice, self.hmax, self.support
+        choice is outside the zone and reached from s0 without entering it. That holds for every
+        atom of h_max below the zone's (``top``: the atoms that gave it its h_max all lie below, and
+        the zone's atoms all have h_max ``top`` or more); for the others, a search backwards over
+        achievers' precondition choices, outside the zone, looks for one below."""
+        achievers, choice, hmax = self.lm.achievers, self.choice, self.hmax
         cut: dict[int, None] = {}
-        budget = self.lm.budget  # steps beyond which the full search is cheaper
+        known: dict[int, bool] = {}  # atoms at or above top, outside the zone: reached or not
         for q in zone:
             for i in achievers[q]:
                 p = choice[i]
                 if p < 0 or p in zone or i in cut:
                     continue
-                while hmax[p] >= top:  # follow the supporters until h_max is below the zone's
-                    budget -= 1
-                    if p in zone or budget < 0:
-                        return None
-                    supporter = support[p]
-                    if supporter < 0:
-                        break
-                    p = choice[supporter]
-                cut[i] = None
-            budget -= len(achievers[q])
-            if budget < 0:
-                return None
+                if hmax[p] < top:
+                    cut[i] = None
+                    continue
+                reached = known.get(p)
+                if reached is None:
+                    reached = self._reached_outside(p, zone, top, known)
+                if reached:
+                    cut[i] = None
         return list(cut)
 
-    def _cut_actions(self, zone: set[int]) -> list[int]:
-        """The actions whose precondition choice is reached from s0 outside ``zone`` and that add an
-        atom of it."""
-        lm = self.lm
-        users, add, choice = lm.users, lm.add, self.choice
-        reached = set(lm.initial)
-        stack = list(lm.initial)
-        cut = []
+    def _reached_outside(self, atom: int, zone: set[int], top: float, known: dict[int, bool]) -> bool:
+        """Whether ``atom`` (outside the zone, h_max at least ``top``) is reached from s0 without
+        entering ``zone``: whether a chain of achievers' precondition choices outside the zone leads
+        back to an atom of h_max below ``top``. Searches that find none mark what they saw."""
+        achievers, choice, hmax = self.lm.achievers, self.choice, self.hmax
+        seen = {atom}
+        stack = [atom]
         while stack:
-            p = stack.pop()
-            for i in users[p]:
-                if choice[i] != p:
+            for i in achievers[stack.pop()]:
+                p = choice[i]
+                if p < 0 or p in zone or p in seen:
                     continue
-                hit = False
-                for q in add[i]:
-                    if q in zone:
-                        hit = True
-                    elif q not in reached:
-                        reached.add(q)
-                        stack.append(q)
-                if hit:
-                    cut.append(i)
-        return cut
+                if hmax[p] < top or known.get(p):
+                    known[atom] = True
+                    return True
+                if p not in known:
+                    seen.add(p)
+                    stack.append(p)
+        for p in seen:
+            known[p] = False
+        return False
 
     def _lower(self, heap: list[tuple[float, int]]) -> None:
         """Propagate lowered h_max values (a heap of them) to the actions that use the atoms."""
         lm = self.lm
         users, pre, add = lm.users, lm.pre, lm.add
-        hmax, value, choice, cost, support = self.hmax, self.value, self.choice, self.cost, self.support
+        hmax, value, choice, cost = self.hmax, self.value, self.choice, self.cost
+        pop, push = heapq.heappop, heapq.heappush
         while heap:
-            v, q = heapq.heappop(heap)
+            v, q = pop(heap)
             if v != hmax[q]:
                 continue
             for i in users[q]:
                 if choice[i] != q:  # the costliest precondition is another one, unchanged
                     continue
-                old = value[i]
-                best, arg = -1.0, -1
-                for p in pre[i]:
-                    if hmax[p] > best:
-                        best, arg = hmax[p], p
-                choice[i] = arg
-                if best < old:
+                needs = pre[i]
+                if len(needs) == 1:
+                    best = v
+                else:
+                    best, arg = -1.0, -1
+                    for p in needs:
+                        if hmax[p] > best:
+                            best, arg = hmax[p], p
+                    choice[i] = arg
+                if best < value[i]:
                     value[i] = best
                     reached = best + cost[i]
                     for q2 in add[i]:
                         if reached < hmax[q2]:
                             hmax[q2] = reached
-                            support[q2] = i
-                            heapq.heappush(heap, (reached, q2))
+                            push(heap, (reached, q2))
