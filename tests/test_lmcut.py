@@ -114,6 +114,21 @@ def test_the_cut_from_the_zones_achievers_equals_the_forward_search(seed: int, m
     assert cuts > 0 or all(v in (0.0, math.inf) for v in values)
 
 
+@pytest.mark.parametrize("seed", range(150))
+def test_lmcut_over_the_actions_relevant_to_a_goal_equals_lmcut_over_all(seed: int) -> None:
+    """The search evaluates LM-cut over the actions relevant to the goal only: on every condition
+    made of the goal's atoms and the preconditions of relevant actions it gives the whole space's value."""
+    task = random_case(seed).task
+    rng = random.Random(seed)
+    goal = rng.sample(range(len(task.atoms)), min(3, len(task.atoms)))
+    relevant = task.relevant_to(goal)
+    atoms = sorted(set(goal).union(*(task.actions[i].pre for i in relevant)))
+    whole, part = LmCut(task, task.actions), LmCut(task, task.restricted(relevant))
+    for _ in range(12):
+        condition = frozenset(rng.sample(atoms, rng.randint(1, min(5, len(atoms)))))
+        assert part(condition) == whole(condition), (seed, sorted(condition))
+
+
 def gripper(balls: int) -> GroundTask:
     builder = DomainBuilder(f"gripper-{balls}")
     rooms, hands = ("a", "b"), ("left", "right")

@@ -188,10 +188,14 @@ class GroundTask:
         """The indices of the actions that can take part in reaching ``goal``: the achievers of its
         literals, then of their preconditions' literals, and so on (backward relevance, the
         operators Fast Downward's translator keeps as "necessary")."""
+        return self.relevant_to(atom for disjunct in goal.disjuncts for atom in disjunct)
+
+    def relevant_to(self, atoms: Iterable[int]) -> frozenset[int]:
+        """The indices of the actions relevant to reaching ``atoms`` (see :meth:`relevant_actions`)."""
         seen: set[int] = set()
         found: set[int] = set()
-        pending = [atom for disjunct in goal.disjuncts for atom in disjunct]
-        achievers = self.achievers
+        pending = list(atoms)
+        achievers, actions = self.achievers, self.actions
         while pending:
             atom = pending.pop()
             if atom in seen:
@@ -200,7 +204,7 @@ class GroundTask:
             for index in achievers[atom]:
                 if index not in found:
                     found.add(index)
-                    pending.extend(self.actions[index].pre)
+                    pending.extend(actions[index].pre)
         return frozenset(found)
 
     @cached_property

@@ -446,7 +446,12 @@ def build_heuristic(
     cheap = LandmarkSum(analysis.landmarks, share, task.initial_state, analysis.pre_landmarks, hmax)
     if name == "lm":
         return cheap
-    if plain and len(actions) == len(task.actions):  # kept with the task: its table serves every goal
-        return Deferred(cheap, task.derived((LmCut, "full"), lambda: LmCut(task, actions, None, deadline)))
-    changed = None if plain else {a.index: discounts.get(a.index, a.cost * scale) for a in actions}
-    return Deferred(cheap, LmCut(task, actions, changed, deadline))
+    # LM-cut of a condition made of the goal's atoms and the preconditions of their achievers reads
+    # only the actions relevant to the goal (h_max, zones and cuts stay among them): the others are
+    # left out, with the same values.
+    relevant = task.relevant_to(goal)
+    space = [a for a in actions if a.index in relevant]
+    if plain and len(space) == len(task.actions):  # kept with the task: its table serves every goal
+        return Deferred(cheap, task.derived((LmCut, "full"), lambda: LmCut(task, space, None, deadline)))
+    changed = None if plain else {a.index: discounts.get(a.index, a.cost * scale) for a in space}
+    return Deferred(cheap, LmCut(task, space, changed, deadline))
