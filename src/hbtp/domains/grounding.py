@@ -34,7 +34,7 @@ import itertools
 import logging
 import math
 import os
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Container, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 from hbtp.deadline import Deadline, TimeLimitReached
@@ -453,18 +453,17 @@ class _Grounder:
         known = set(self.initial)
         # A schema's bindings change only when a predicate it joins gained facts in the last round.
         joined = {schema.name: self._joined_predicates(schema) for schema in self.domain.actions}
-        counted: dict[str, int] = {}  # per schema, its ground actions in its last join
+        # A binding joined in an earlier round added its atoms then: its effects are not built again.
+        taken: dict[str, set[tuple[str, ...]]] = {schema.name: set() for schema in self.domain.actions}
         changed: set[str] | None = None  # None in the first round: every schema is joined
         rounds = 0
+        self.kept = 0
         while True:
             rounds += 1
             new: set[_Key] = set()
             for schema in self.domain.actions:
                 if changed is None or joined[schema.name] & changed:
-                    self.kept = sum(n for name, n in counted.items() if name != schema.name)
-                    before = self.kept
-                    self._reach_schema(schema, known, new)
-                    counted[schema.name] = self.kept - before
+                    self._reach_schema(schema, known, new, taken[schema.name])
             if not new:
                 break
             for key in sorted(new):
@@ -485,10 +484,14 @@ class _Grounder:
         _, fluent_parts = self._split_precondition(schema.precondition)
         return {part.predicate for part in _reaching_atoms(fluent_parts)}
 
-    def _reach_schema(self, schema: ActionSchema, known: set[_Key], new: set[_Key]) -> None:
-        """Add to ``new`` what the ground actions of ``schema`` joined so far add beyond ``known``,
-        counting them against the limit (those that change nothing are not counted)."""
-        for key, found in self.build(schema, costs_only=False, warn=False):
+    def _reach_schema(
+        self, schema: ActionSchema, known: set[_Key], new: set[_Key], taken: set[tuple[str, ...]]
+    ) -> None:
+        """Add to ``new`` what the ground actions of ``schema`` joined so far, but not ``taken`` in an
+        earlier round, add beyond ``known``, counting them against the limit (those that change
+        nothing are not counted); they join ``taken``."""
+        for key, found in self.build(schema, costs_only=False, warn=False, skip=taken):
+            taken.add(key)
             changes = False
             for options, add, delete, _cost in found:
                 changes = changes or any(any(_changes(frozenset(pre), add, delete)) for pre in options)
@@ -612,23 +615,27 @@ class _Grounder:
                 )
         return names
 
-    def build(self, schema: ActionSchema, costs_only: bool, warn: bool = True) -> Iterator[_Built]:
+    def build(
+        self, schema: ActionSchema, costs_only: bool, warn: bool = True, skip: Container[tuple[str, ...]] = ()
+    ) -> Iterator[_Built]:
         """The ground actions of ``schema``, per binding: its arguments and its variants
         (:func:`~hbtp.domains.alternatives.variants`), each with its precondition's alternatives, add,
         delete and cost; those whose cost is undefined are left out with a warning. With
         ``costs_only``, effects are not computed and each binding has one variant, whose cost is the
-        action's when no conditional effect over fluents fires."""
+        action's when no conditional effect over fluents fires. Bindings in ``skip`` are passed over."""
         try:
-            yield from self._build(schema, costs_only, warn)
+            yield from self._build(schema, costs_only, warn, skip)
         except TooManyAlternatives as error:
             source = self.domain.source
             raise GroundingError(f"{source}:{schema.line}: {error}" if source and schema.line else str(error)) from None
 
-    def _build(self, schema: ActionSchema, costs_only: bool, warn: bool) -> Iterator[_Built]:
+    def _build(
+        self, schema: ActionSchema, costs_only: bool, warn: bool, skip: Container[tuple[str, ...]]
+    ) -> Iterator[_Built]:
         compiled = self._compile(schema)
         ops = compiled.cost_ops if costs_only else compiled.ops
         dropped: list[str] = []
-        for key, binding, pre in self._candidates(schema, compiled):
+        for key, binding, pre in self._candidates(schema, compiled, skip):
             effects = Effects()
             try:
                 for op in ops:
@@ -661,18 +668,18 @@ class _Grounder:
         return cost
 
     def _candidates(
-        self, schema: ActionSchema, compiled: _Schema
+        self, schema: ActionSchema, compiled: _Schema, skip: Container[tuple[str, ...]]
     ) -> Iterator[tuple[tuple[str, ...], Binding, list[_Key] | Choice]]:
-        """Each binding (once) whose static precondition holds, that ``only`` accepts and whose fluent
-        precondition is not false, with the fluent literals it requires (a choice of alternatives
-        when a disjunction over fluents remains)."""
+        """Each binding (once) not in ``skip`` whose static precondition holds, that ``only`` accepts
+        and whose fluent precondition is not false, with the fluent literals it requires (a choice of
+        alternatives when a disjunction over fluents remains)."""
         names, fluent, only = compiled.names, compiled.fluent, self.only
         allowed = only.objects if isinstance(only, Selection) else None
         seen: set[tuple[str, ...]] = set()
         for binding in self._bindings(compiled.static, schema.parameters, {}, allowed):
             self.tick()
             key = tuple([binding[name] for name in names])
-            if key in seen:
+            if key in seen or key in skip:
                 continue
             seen.add(key)
             if only is not None and not only(schema.name, key):
