@@ -446,12 +446,19 @@ def build_heuristic(
     cheap = LandmarkSum(analysis.landmarks, share, task.initial_state, analysis.pre_landmarks, hmax)
     if name == "lm":
         return cheap
-    # LM-cut of a condition made of the goal's atoms and the preconditions of their achievers reads
-    # only the actions relevant to the goal (h_max, zones and cuts stay among them): the others are
-    # left out, with the same values.
-    relevant = task.relevant_to(goal)
-    space = [a for a in actions if a.index in relevant]
+    space = _lmcut_space(task, actions, goal)
     if plain and len(space) == len(task.actions):  # kept with the task: its table serves every goal
         return Deferred(cheap, task.derived((LmCut, "full"), lambda: LmCut(task, space, None, deadline)))
     changed = None if plain else {a.index: discounts.get(a.index, a.cost * scale) for a in space}
     return Deferred(cheap, LmCut(task, space, changed, deadline))
+
+
+def _lmcut_space(task: GroundTask, actions: Sequence[GroundAction], goal: Collection[int]) -> Sequence[GroundAction]:
+    """The actions LM-cut reads for a search of ``goal``. On a condition made of the goal's atoms and
+    the preconditions of their achievers, LM-cut reads only the actions relevant to the goal (h_max,
+    zones and cuts stay among them): the others give the same values and only cost time. When they
+    are few, the whole space's LM-cut, kept with the task for every goal, is cheaper than a new one."""
+    relevant = task.relevant_to(goal)
+    if len(relevant) * 4 > len(actions) * 3:
+        return actions
+    return [a for a in actions if a.index in relevant]
