@@ -459,6 +459,5 @@ def _lmcut_space(task: GroundTask, actions: Sequence[GroundAction], goal: Collec
     zones and cuts stay among them): the others give the same values and only cost time. When they
     are few, the whole space's LM-cut, kept with the task for every goal, is cheaper than a new one."""
     relevant = task.relevant_to(goal)
-    if len(relevant) * 4 > len(actions) * 3:
-        return actions
-    return [a for a in actions if a.index in relevant]
+    space = [a for a in actions if a.index in relevant]
+    return actions if len(space) * 4 > len(actions) * 3 else space
