@@ -150,7 +150,10 @@ def test_lmcut_finds_the_landmarks_of_gripper(balls: int) -> None:
     assert LmCut(task, task.actions)(goal.literal_ids) == 2 * balls + 1
     heuristic = build_heuristic("lmcut", task, task.actions, goal.literal_ids)
     assert isinstance(heuristic, Deferred)
-    assert heuristic(goal.literal_ids) < heuristic.refine(goal.literal_ids) == 2 * balls + 1
+    assert heuristic.refine(goal.literal_ids) == 2 * balls + 1
+    # The cheap part (landmarks, h_max and h²) is exact for one ball (pick, move, drop), weaker for more.
+    cheap = heuristic(goal.literal_ids)
+    assert cheap == 3 if balls == 1 else cheap < 2 * balls + 1
 
 
 def test_lmcut_with_changed_costs_uses_them() -> None:

@@ -94,8 +94,8 @@ search_options = option_group(
         type=click.Choice(list(HEURISTICS)),
         default="lm",
         show_default=True,
-        help="LLM-free admissible heuristic: lm (landmarks, max with hmax), lmcut (also LM-cut: stronger, costlier; "
-        "for IPC-style PDDL domains), hmax, or none (the paper's planners).",
+        help="LLM-free admissible heuristic: lm (landmarks, max with hmax), lmcut (also h² and LM-cut: stronger, "
+        "costlier; for IPC-style PDDL domains), hmax, or none (the paper's planners).",
     ),
     click.option(
         "--alpha", type=float, default=10_000, show_default=True, help="HBTP-O discount divisor, from 1 to 10^9."

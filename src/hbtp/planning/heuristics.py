@@ -17,11 +17,13 @@ needs), and ``cost(f)`` is the cheapest share of an achiever of ``f``. Then
 shares; plan costs are whole numbers) and consistent, since ``L(c) ⊆ L(regress(c, a)) ∪ add(a)`` and
 the shares of ``a`` add up to at most its cost. The combined heuristic is ``max(hmax, lm)``.
 
-``lmcut``: ``max(hmax, lm, LM-cut)`` (:mod:`hbtp.planning.lmcut`), the strongest and costliest. LM-cut
-is admissible but not consistent, so it is :class:`Deferred`: the open list is ordered by
-``max(hmax, lm)`` and a condition's LM-cut is computed when it is first taken off the list (it goes
-back with the higher value if LM-cut raises it), and the search re-opens a condition it reaches
-again more cheaply, which keeps OBTEA optimal.
+``lmcut``: ``max(hmax, lm, h², LM-cut)`` (:mod:`hbtp.planning.pairs`, :mod:`hbtp.planning.lmcut`), the
+strongest and costliest. h² (the costliest pair of atoms, deletes included) is consistent, so it
+joins the cheap part; it is left out on tasks with more atoms than
+:data:`~hbtp.planning.pairs.MAX_ATOMS`. LM-cut is admissible but not consistent, so it is
+:class:`Deferred`: the open list is ordered by ``max(hmax, lm, h²)`` and a condition's LM-cut is
+computed when it is first taken off the list (it goes back with the higher value if LM-cut raises
+it), and the search re-opens a condition it reaches again more cheaply, which keeps OBTEA optimal.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from typing import Literal, Protocol, overload
 from hbtp.deadline import Deadline
 from hbtp.logic.task import GroundAction, GroundTask
 from hbtp.planning.lmcut import LmCut
+from hbtp.planning.pairs import PairCosts, pair_costs
 
 HeuristicName = Literal["none", "hmax", "lm", "lmcut"]
 HEURISTICS: tuple[str, ...] = ("none", "hmax", "lm", "lmcut")
@@ -447,10 +450,36 @@ def build_heuristic(
     if name == "lm":
         return cheap
     space = _lmcut_space(task, actions, goal)
-    if plain and len(space) == len(task.actions):  # kept with the task: its table serves every goal
-        return Deferred(cheap, task.derived((LmCut, "full"), lambda: LmCut(task, space, None, deadline)))
+    if plain and len(space) == len(task.actions):  # kept with the task: its tables serve every goal
+        pairs = task.derived((PairCosts, "full"), lambda: pair_costs(task, space, None, deadline))
+        return Deferred(
+            _with_pairs(cheap, pairs), task.derived((LmCut, "full"), lambda: LmCut(task, space, None, deadline))
+        )
     changed = None if plain else {a.index: discounts.get(a.index, a.cost * scale) for a in space}
-    return Deferred(cheap, LmCut(task, space, changed, deadline))
+    return Deferred(
+        _with_pairs(cheap, pair_costs(task, space, changed, deadline)), LmCut(task, space, changed, deadline)
+    )
+
+
+def _with_pairs(cheap: Heuristic, pairs: PairCosts | None) -> Heuristic:
+    """The larger of ``cheap`` and h² (both consistent, so their maximum is), or ``cheap`` alone for a
+    task too large for h²."""
+    return cheap if pairs is None else Larger(cheap, pairs)
+
+
+class Larger:
+    """The larger of two heuristics' estimates."""
+
+    def __init__(self, first: Heuristic, second: Heuristic) -> None:
+        self.first = first
+        self.second = second
+
+    def __call__(self, condition: Iterable[int]) -> float:
+        atoms = condition if isinstance(condition, (frozenset, set, list, tuple)) else list(condition)
+        return max(self.first(atoms), self.second(atoms))
+
+    def precondition_bound(self, action: GroundAction) -> float:
+        return max(self.first.precondition_bound(action), self.second.precondition_bound(action))
 
 
 def _lmcut_space(task: GroundTask, actions: Sequence[GroundAction], goal: Collection[int]) -> Sequence[GroundAction]:
