@@ -39,10 +39,11 @@ from hbtp.domains.scenarios import ScenarioOptions
 from hbtp.errors import BackendError, HbtpError, InputError
 from hbtp.planning import Limits, PlanResult, plan, release_search_memory
 from hbtp.planning.heuristics import HeuristicName
+from hbtp.planning.planners import planner_config
 
 log = logging.getLogger(__name__)
 
-KEY = ("domain", "instance", "planner", "heuristic")
+KEY = ("domain", "instance", "planner", "heuristic", "symmetry")
 REFERENCE_FILE = "fd_optimal_costs.json"
 #: Planners whose cost must equal the optimum (without hints HBTP-O searches as OBTEA does).
 OPTIMAL_PLANNERS = ("obtea", "hbtp-o")
@@ -68,6 +69,8 @@ class PddlConfig:
     heuristic: HeuristicName = "lmcut"
     time_limit: float = 60.0
     validate: bool = False
+    #: Symmetry pruning (interchangeable objects: SearchConfig.symmetry) in hbtp's searches.
+    symmetry: bool = True
 
 
 @dataclass(frozen=True)
@@ -80,6 +83,7 @@ class PddlRun:
     time_limit: float
     reference: float | None
     validate: bool
+    symmetry: bool = True
 
 
 def _paired_domain(folder: Path, stem: str) -> Path | None:
@@ -204,7 +208,8 @@ def run_one(run: PddlRun) -> dict[str, Any]:
     load = time.perf_counter() - started
     started = time.perf_counter()
     limits = Limits(time_s=run.time_limit)
-    result = plan(scenario.task, goal, run.planner, heuristic=run.heuristic, mutexes=scenario.mutexes, limits=limits)
+    config = planner_config(run.planner, heuristic=run.heuristic, symmetry=run.symmetry)
+    result = plan(scenario.task, goal, config, mutexes=scenario.mutexes, limits=limits)
     planning = time.perf_counter() - started
     verified = verified_tree(result, scenario, goal)
     release_search_memory()
@@ -216,6 +221,7 @@ def run_one(run: PddlRun) -> dict[str, Any]:
         "verified": verified,
         "cost": cost,
         "explored": result.stats.explored,
+        "pruned_symmetric": result.stats.pruned_symmetric,
         "actions": len(scenario.task.actions),
         "relevant_actions": len(scenario.task.relevant_actions(goal)),
         "load_s": round(load, 6),
@@ -231,6 +237,7 @@ def known(run: PddlRun) -> dict[str, Any]:
         "instance": run.instance.name,
         "planner": run.planner,
         "heuristic": run.heuristic,
+        "symmetry": run.symmetry and run.planner != FAST_DOWNWARD,
         "reference_cost": run.reference,
         "cost": None,
         "explored": None,
@@ -250,8 +257,10 @@ def run_pddl(folder: Path, config: PddlConfig, out: Path, execution: Execution =
     for planner in (*config.planners, *((FAST_DOWNWARD,) if config.validate else ())):
         for instance in instances:
             reference = references.get(instance.domain, {}).get(instance.name)
-            spec = PddlRun(instance, planner, config.heuristic, config.time_limit, reference, config.validate)
-            key = (instance.domain, instance.name, planner, config.heuristic)
+            spec = PddlRun(
+                instance, planner, config.heuristic, config.time_limit, reference, config.validate, config.symmetry
+            )
+            key = (instance.domain, instance.name, planner, config.heuristic, known(spec)["symmetry"])
             work.append(Work(key, spec, known(spec), stage=f"{planner} {instance.domain}"))
     results = ResultsFile(out / "results.jsonl", KEY)
     run_work(run_one, work, results, execution, kill_after=hard_limit(config.time_limit), description="pddl")
@@ -340,6 +349,7 @@ def summarise(rows: Sequence[dict[str, Any]], config: PddlConfig, folder: Path) 
             "heuristic": config.heuristic,
             "time_limit": config.time_limit,
             "validate": config.validate,
+            "symmetry": config.symmetry,
         },
         "runs": len(rows),
         "domains": {d: len({r["instance"] for r in rows if r["domain"] == d}) for d in domains},
@@ -382,7 +392,8 @@ def pddl_section(summary: dict[str, Any], plotted: bool = True) -> str:
     ]
     parts = [
         "## Coverage, cost and time on a folder of PDDL benchmarks",
-        f"`{config['folder']}`; heuristic `{config['heuristic']}`, {config['time_limit']:g} s per run (loading and "
+        f"`{config['folder']}`; heuristic `{config['heuristic']}`, symmetry pruning "
+        f"{'on' if config.get('symmetry') else 'off'}, {config['time_limit']:g} s per run (loading and "
         "search each), every solved tree verified (static check from s0, then a run in the simulator). Coverage "
         "counts verified trees; times are medians over them (time = load + planning).",
         _table(header, rows),

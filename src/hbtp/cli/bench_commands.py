@@ -437,17 +437,30 @@ def payoff(
     "-t", "--time-limit", type=float, default=60.0, show_default=True, help="Seconds per run (load, then search)."
 )
 @click.option("--validate", is_flag=True, help="Fast Downward's optimal cost where DIR has none (validate extra).")
+@click.option(
+    "--symmetry/--no-symmetry",
+    default=True,
+    show_default=True,
+    help="Prune conditions symmetric to explored ones (interchangeable objects): still optimal, smaller trees.",
+)
 @out_dir_option
 @execution_options
 def pddl(
-    folder: Path, planners: str, heuristic: str, time_limit: float, validate: bool, out_dir: str, execution: Execution
+    folder: Path,
+    planners: str,
+    heuristic: str,
+    time_limit: float,
+    validate: bool,
+    symmetry: bool,
+    out_dir: str,
+    execution: Execution,
 ) -> int:
     """Every DIR/<domain>/domain.pddl with each other .pddl there: coverage, cost, time, optimal costs
     (DIR/fd_optimal_costs.json, or Fast Downward with --validate)."""
     if not (time_limit > 0 and time_limit < float("inf")):
         raise click.BadParameter("must be a positive number of seconds", param_hint="--time-limit")
     chosen = comma_choices(planners, PLANNERS, "--planners", "planner")
-    config = PddlConfig(chosen, cast(HeuristicName, heuristic), time_limit, validate)
+    config = PddlConfig(chosen, cast(HeuristicName, heuristic), time_limit, validate, symmetry)
     summary = run_pddl(folder, config, Path(out_dir), execution)
     click.echo(f"{'planner':8} {'verified':>9} {'median s':>9}   per domain")
     for name, row in summary["planners"].items():

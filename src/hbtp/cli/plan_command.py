@@ -46,7 +46,7 @@ from hbtp.pipeline.instruct import GoalChoice
 from hbtp.pipeline.loop import Progress
 from hbtp.planning import PLANNER_DESCRIPTIONS, PLANNERS, Limits, plan
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
-from hbtp.planning.planners import check_alpha
+from hbtp.planning.planners import check_alpha, planner_config
 from hbtp.planning.result import PlanResult, Status
 
 log = logging.getLogger(__name__)
@@ -65,6 +65,7 @@ class SearchRequest:
     max_expansions: int | None
     extra_expansions: int
     memory_mb: float | None
+    symmetry: bool
 
     def limits(self) -> Limits:
         return Limits(time_s=self.time_limit, max_expansions=self.max_expansions, memory_mb=self.memory_mb)
@@ -111,6 +112,13 @@ search_options = option_group(
         help="Explore N more conditions after the solution: a larger tree that recovers from more disturbances.",
     ),
     click.option("--memory-mb", type=float, help="Stop when the process grows beyond this size."),
+    click.option(
+        "--symmetry",
+        is_flag=True,
+        help="Prune conditions symmetric to explored ones (interchangeable objects, e.g. gripper's balls): "
+        "still optimal, far faster on such tasks, but a smaller tree that reacts to fewer disturbances. "
+        "Without --llm only.",
+    ),
 )
 
 
@@ -286,6 +294,8 @@ def run_plan(request: PlanRequest) -> int:
     loaded, goal = loaded.resolve_goal(goal_source)
     check_alpha(search.alpha)
     report = _Report(loaded, goal, request)
+    if spec is not None and search.symmetry:
+        raise InputError("--symmetry applies to planning without an LLM (drop --llm or --symmetry)")
     if spec is not None and auto_backend(spec) is not None:
         auto = _run_auto(spec, request, loaded, goal, limits)
         return report.finish(auto.result, "llm" if auto.asked_llm else "none", auto.loop, auto)
@@ -294,15 +304,16 @@ def run_plan(request: PlanRequest) -> int:
         return report.finish(loop.result, "llm", loop)
     hints = load_hints(search.hints_source, loaded, goal, limits)
     space = search.space or ("pruned" if hints is not None else "full")
+    config = planner_config(
+        search.planner, heuristic=cast(HeuristicName, search.heuristic), alpha=search.alpha, symmetry=search.symmetry
+    )
     result = plan(
         loaded.task,
         goal,
-        search.planner,
+        config,
         hints=hints,
         space="pruned" if space == "pruned" else "full",
         mutexes=loaded.mutexes,
-        heuristic=cast(HeuristicName, search.heuristic),
-        alpha=search.alpha,
         limits=limits,
         extra_expansions=search.extra_expansions,
     )

@@ -54,11 +54,13 @@ __all__ = [
 ]
 
 
-def planner_config(name: str, *, heuristic: HeuristicName = "none", alpha: Number = DEFAULT_ALPHA) -> SearchConfig:
+def planner_config(
+    name: str, *, heuristic: HeuristicName = "none", alpha: Number = DEFAULT_ALPHA, symmetry: bool = False
+) -> SearchConfig:
     """The :class:`SearchConfig` of a registered planner, with the given options.
 
     ``alpha`` (HBTP-O's divisor, any finite number from 1 to :data:`MAX_ALPHA`) is checked for every
-    planner, used by HBTP-O only.
+    planner, used by HBTP-O only. ``symmetry``: see :attr:`SearchConfig.symmetry`.
     """
     try:
         base = PLANNERS[name]
@@ -66,13 +68,14 @@ def planner_config(name: str, *, heuristic: HeuristicName = "none", alpha: Numbe
         raise InputError(f"unknown planner {name!r}; choose one of: {', '.join(PLANNERS)}") from None
     if heuristic not in HEURISTICS:
         raise InputError(f"unknown heuristic {heuristic!r}; choose one of: {', '.join(HEURISTICS)}")
-    return dataclasses.replace(base, heuristic=heuristic, costs=base.costs.with_alpha(check_alpha(alpha)))
+    costs = base.costs.with_alpha(check_alpha(alpha))
+    return dataclasses.replace(base, heuristic=heuristic, costs=costs, symmetry=symmetry)
 
 
 def plan(
     task: GroundTask,
     goal: Goal | str,
-    planner: str = "hbtp-s",
+    planner: str | SearchConfig = "hbtp-s",
     *,
     hints: Hints | ResolvedHints | None = None,
     space: Space = "full",
@@ -84,11 +87,18 @@ def plan(
 ) -> PlanResult:
     """Plan a behavior tree for ``goal``.
 
+    ``planner`` is a planner's name, with ``heuristic`` and ``alpha``, or a :class:`SearchConfig`
+    from :func:`planner_config`, which holds them and the rarer options (``symmetry``).
     ``space="pruned"`` searches A⁻ = (Q⁻ × O⁻) ∩ A built from the hints; ``"full"`` every action.
     Hints naming unknown actions, predicates or objects are reported in the log and ignored.
     ``extra_expansions`` explores that many more conditions after the solution (a more reactive tree).
     """
-    config = planner_config(planner, heuristic=heuristic, alpha=alpha)
+    if isinstance(planner, SearchConfig):
+        if heuristic != "none" or alpha != DEFAULT_ALPHA:
+            raise InputError("give the heuristic and alpha in the SearchConfig, not beside it")
+        config = planner
+    else:
+        config = planner_config(planner, heuristic=heuristic, alpha=alpha)
     resolved_goal = task.resolve_goal(goal) if isinstance(goal, str) else goal
     resolved: ResolvedHints | None
     if hints is None:

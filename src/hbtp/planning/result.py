@@ -52,6 +52,7 @@ class SearchStats:
     action_space: int = 0
     tree_conditions: int = 0  # conditions in the tree: explored, plus any robustness expansions
     reopened: int = 0  # expanded conditions reached again more cheaply (only under lmcut)
+    pruned_symmetric: int = 0  # conditions symmetric to one held at no higher g (SearchConfig.symmetry)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -64,6 +65,7 @@ class SearchStats:
             "action_space": self.action_space,
             "tree_conditions": self.tree_conditions,
             "reopened": self.reopened,
+            "pruned_symmetric": self.pruned_symmetric,
         }
 
 

@@ -47,6 +47,7 @@ from hbtp.planning.heuristics import Deferred, Heuristic, HeuristicName, build_h
 from hbtp.planning.hints import ResolvedHints
 from hbtp.planning.limits import Limits, LimitWatch
 from hbtp.planning.result import Expansion, PlanResult, SearchStats, Status
+from hbtp.planning.symmetry import find_symmetry
 
 log = logging.getLogger(__name__)
 
@@ -58,6 +59,9 @@ class SearchConfig:
     name: str
     costs: StepCosts
     heuristic: HeuristicName = "none"
+    #: Prune conditions symmetric to one held at no higher g (interchangeable objects, see
+    #: :mod:`hbtp.planning.symmetry`): still optimal, a smaller tree. Only without p̂, in the whole space.
+    symmetry: bool = False
 
 
 # An open-list entry: (priority, owed, unmet, order, g, condition, stage), compared left to right:
@@ -264,13 +268,17 @@ class _Search:
         self.adders: dict[int, list[tuple[Number, int]]] = {}
 
         self.mutexes = mutexes
+        self.symmetry = (
+            find_symmetry(task, goal.disjuncts, actions) if config.symmetry and not self.path_index else None
+        )
+        self.orbits: dict[frozenset[int], frozenset[int]] = {}  # canonical image -> the condition holding it
         self.nodes: dict[frozenset[int], _Node] = {}
         self.open: list[_Entry] = []
         self.counter = 0
         self.expanded = SubsetIndex()  # the expanded conditions, valued by their g
         self.expansions: list[Expansion] = []
         self.position: dict[frozenset[int], int] = {}
-        self.generated = self.pruned_subset = self.pruned_mutex = self.pruned_dead_end = 0
+        self.generated = self.pruned_subset = self.pruned_mutex = self.pruned_dead_end = self.pruned_symmetric = 0
         self.stopped: Status | None = None
         self.extra_expansions = extra_expansions
         self.explored_at_solution = 0
@@ -496,6 +504,9 @@ class _Search:
         known = self.nodes.get(result)
         if known is not None and (known.g <= g or (known.closed and self.deferred is None)):
             return
+        if self.symmetry is not None and self.symmetric_duplicate(result, g):
+            self.pruned_symmetric += 1
+            return
         priority = self.priority(result, g)
         if math.isinf(priority) or (
             not self.astar and self.heuristic is not None and math.isinf(self.heuristic(result))
@@ -511,10 +522,24 @@ class _Search:
         self.generated += 1
         self.push(result, new, priority, self.fresh)
 
+    def symmetric_duplicate(self, condition: frozenset[int], g: Number) -> bool:
+        """Whether a condition symmetric to ``condition`` is held at no higher g (else ``condition``
+        becomes its orbit's condition)."""
+        assert self.symmetry is not None
+        key = self.symmetry.canonical(condition)
+        held = self.orbits.get(key)
+        if held is not None and held != condition:
+            other = self.nodes.get(held)
+            if other is not None and other.g <= g:
+                return True
+        self.orbits[key] = condition
+        return False
+
     def release(self) -> tuple[object, ...]:
         """Hand over the search state, to be freed later (returning costs nothing then)."""
-        state = (self.nodes, self.open, self.adders, self.expanded, self.position)
+        state = (self.nodes, self.open, self.adders, self.expanded, self.position, self.orbits)
         self.nodes, self.open, self.adders, self.expanded, self.position = {}, [], {}, SubsetIndex(), {}
+        self.orbits = {}
         return state
 
     # ----------------------------------------------------------------- result
@@ -526,6 +551,7 @@ class _Search:
             pruned_subset=self.pruned_subset,
             pruned_mutex=self.pruned_mutex,
             pruned_dead_end=self.pruned_dead_end,
+            pruned_symmetric=self.pruned_symmetric,
             reopened=self.reopened,
             time_s=time.perf_counter() - self.watch.started,
             action_space=self.space,
