@@ -341,3 +341,13 @@ def assert_obtea_optimal(task: GroundTask, goal: Goal, mutexes: Any, optimum: in
         assert run.cost == optimum, where
         runs.append(run)
     return runs
+
+
+def relevant_conditions(task: GroundTask, seed: int, count: int = 12) -> tuple[frozenset[int], list[frozenset[int]]]:
+    """A random goal's relevant actions, and ``count`` random conditions made of the goal's atoms and
+    the preconditions of those actions (what a search of that goal regresses)."""
+    rng = random.Random(seed)
+    goal = rng.sample(range(len(task.atoms)), min(3, len(task.atoms)))
+    relevant = task.relevant_to(goal)
+    atoms = sorted(set(goal).union(*(task.actions[i].pre for i in relevant)))
+    return relevant, [frozenset(rng.sample(atoms, rng.randint(1, min(5, len(atoms))))) for _ in range(count)]

@@ -26,7 +26,7 @@ from hbtp.logic.task import GroundAction, GroundTask
 from hbtp.planning import plan
 from hbtp.planning.heuristics import Deferred, Heuristic, HMax, build_heuristic, hmax_table
 from hbtp.planning.lmcut import LmCut
-from helpers import brute_force, random_case, run_tree
+from helpers import brute_force, random_case, relevant_conditions, run_tree
 
 search_module = importlib.import_module("hbtp.planning.search")
 lmcut_module = importlib.import_module("hbtp.planning.lmcut")
@@ -119,13 +119,9 @@ def test_lmcut_over_the_actions_relevant_to_a_goal_equals_lmcut_over_all(seed: i
     """The search evaluates LM-cut over the actions relevant to the goal only: on every condition
     made of the goal's atoms and the preconditions of relevant actions it gives the whole space's value."""
     task = random_case(seed).task
-    rng = random.Random(seed)
-    goal = rng.sample(range(len(task.atoms)), min(3, len(task.atoms)))
-    relevant = task.relevant_to(goal)
-    atoms = sorted(set(goal).union(*(task.actions[i].pre for i in relevant)))
+    relevant, conditions = relevant_conditions(task, seed)
     whole, part = LmCut(task, task.actions), LmCut(task, task.restricted(relevant))
-    for _ in range(12):
-        condition = frozenset(rng.sample(atoms, rng.randint(1, min(5, len(atoms)))))
+    for condition in conditions:
         assert part(condition) == whole(condition), (seed, sorted(condition))
 
 

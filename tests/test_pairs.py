@@ -21,7 +21,7 @@ import pytest
 from hbtp.logic.task import GroundAction, GroundTask
 from hbtp.planning import pairs
 from hbtp.planning.pairs import pair_costs
-from helpers import brute_force, random_case
+from helpers import brute_force, random_case, relevant_conditions
 
 
 def reference_h2(task: GroundTask, actions: list[GroundAction], costs: dict[int, float]) -> dict[frozenset[int], float]:
@@ -105,3 +105,17 @@ def test_a_task_past_the_atom_limit_gets_no_table(monkeypatch: pytest.MonkeyPatc
     assert pair_costs(task, task.actions) is None
     monkeypatch.setattr(pairs, "MAX_ATOMS", len(task.atoms))
     assert pair_costs(task, task.actions) is not None
+
+
+@pytest.mark.parametrize("seed", range(150))
+def test_h2_over_the_actions_relevant_to_a_goal_equals_h2_over_all(seed: int) -> None:
+    """With discounted step costs the search computes h² over the goal's relevant actions only: on
+    conditions made of the goal's atoms and the preconditions of relevant actions it gives the whole
+    space's value."""
+    task = random_case(seed).task
+    relevant, conditions = relevant_conditions(task, seed)
+    whole, part = pair_costs(task, task.actions), pair_costs(task, task.restricted(relevant))
+    assert whole is not None
+    assert part is not None
+    for condition in conditions:
+        assert part(condition) == whole(condition), (seed, sorted(condition))

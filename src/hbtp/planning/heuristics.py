@@ -450,15 +450,16 @@ def build_heuristic(
     if name == "lm":
         return cheap
     space = _lmcut_space(task, actions, goal)
-    if plain and len(space) == len(task.actions):  # kept with the task: its tables serve every goal
-        pairs = task.derived((PairCosts, "full"), lambda: pair_costs(task, space, None, deadline))
-        return Deferred(
-            _with_pairs(cheap, pairs), task.derived((LmCut, "full"), lambda: LmCut(task, space, None, deadline))
-        )
     changed = None if plain else {a.index: discounts.get(a.index, a.cost * scale) for a in space}
-    return Deferred(
-        _with_pairs(cheap, pair_costs(task, space, changed, deadline)), LmCut(task, space, changed, deadline)
-    )
+    if plain and len(actions) == len(task.actions):  # the whole space's h², kept with the task for every goal
+        pairs = task.derived((PairCosts, "full"), lambda: pair_costs(task, actions, None, deadline))
+    else:
+        pairs = pair_costs(task, space, changed, deadline)
+    if plain and len(space) == len(task.actions):  # kept with the task: its table serves every goal
+        lmcut = task.derived((LmCut, "full"), lambda: LmCut(task, space, None, deadline))
+    else:
+        lmcut = LmCut(task, space, changed, deadline)
+    return Deferred(_with_pairs(cheap, pairs), lmcut)
 
 
 def _with_pairs(cheap: Heuristic, pairs: PairCosts | None) -> Heuristic:
