@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import logging
 import random
 from pathlib import Path
 
@@ -198,11 +199,13 @@ def test_an_action_that_costs_more_keeps_its_objects_apart() -> None:
     assert sorted(map(sorted, symmetry.classes)) == [["b1", "b2"]]
 
 
-def test_symmetry_pruning_is_off_with_a_heuristic_path() -> None:
+def test_symmetry_pruning_is_off_with_a_heuristic_path(caplog: pytest.LogCaptureFixture) -> None:
     task = gripper(4)
     goal = task.resolve_goal([f"At(b{i},b)" for i in range(4)])
     hints = Hints(path=("Pick(b0,a,left)",))
-    with_path = plan(task, goal, planner_config("hbtp-s", symmetry=True), hints=hints)
+    with caplog.at_level(logging.INFO, logger="hbtp.planning.search"):
+        with_path = plan(task, goal, planner_config("hbtp-s", symmetry=True), hints=hints)
+    assert "no symmetry pruning: it needs the whole action space and no heuristic path" in caplog.text
     assert with_path.solved
     assert with_path.stats.pruned_symmetric == 0
 

@@ -47,7 +47,7 @@ from hbtp.planning.heuristics import Deferred, Heuristic, HeuristicName, build_h
 from hbtp.planning.hints import ResolvedHints
 from hbtp.planning.limits import Limits, LimitWatch
 from hbtp.planning.result import Expansion, PlanResult, SearchStats, Status
-from hbtp.planning.symmetry import find_symmetry
+from hbtp.planning.symmetry import Symmetry, find_symmetry
 
 log = logging.getLogger(__name__)
 
@@ -185,6 +185,18 @@ def search(
         return result
 
 
+def _symmetry(
+    task: GroundTask, goal: Goal, actions: Sequence[GroundAction], config: SearchConfig, follows_path: bool
+) -> Symmetry | None:
+    """The interchangeable objects the search prunes by, when asked (and said when it cannot)."""
+    if not config.symmetry:
+        return None
+    if follows_path or len(actions) != len(task.actions):
+        log.info("%s: no symmetry pruning: it needs the whole action space and no heuristic path", config.name)
+        return None
+    return find_symmetry(task, goal.disjuncts, actions)
+
+
 def _owed_slots(
     costs: StepCosts, hints: ResolvedHints | None, actions: Sequence[GroundAction]
 ) -> tuple[dict[int, int], tuple[int, ...]]:
@@ -268,9 +280,7 @@ class _Search:
         self.adders: dict[int, list[tuple[Number, int]]] = {}
 
         self.mutexes = mutexes
-        self.symmetry = (
-            find_symmetry(task, goal.disjuncts, actions) if config.symmetry and not self.path_index else None
-        )
+        self.symmetry = _symmetry(task, goal, actions, config, bool(self.path_index))
         self.orbits: dict[frozenset[int], frozenset[int]] = {}  # canonical image -> the condition holding it
         self.nodes: dict[frozenset[int], _Node] = {}
         self.open: list[_Entry] = []
