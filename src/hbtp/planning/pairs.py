@@ -107,9 +107,8 @@ class _Fixpoint:
                 self.users[atom].append(slot)
         self.rows = [0] * len(task.atoms)
         self.history: list[list[tuple[float, int]]] = [[] for _ in task.atoms]
-        self.used = [-1] * len(
-            actions
-        )  # per action: the atoms q already paired with its adds (-1: precondition not reached)
+        # Per action, the atoms q already paired with its adds (-1: its precondition not reached yet).
+        self.used = [-1] * len(actions)
         self.pending: dict[float, dict[int, int]] = {}
         self.levels: list[float] = []
         s0 = _mask(task.initial_state)

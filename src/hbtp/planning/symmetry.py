@@ -39,18 +39,16 @@ class Symmetry:
         self.classes = tuple(tuple(members) for members in classes)
         self.class_of = {o: k for k, members in enumerate(self.classes) for o in members}
         self.rank = {o: i for members in self.classes for i, o in enumerate(members)}
-        # Per atom, its (class, object, shape) occurrences: the shape names the atom with that object
-        # as a hole and the other class objects as their class, so equal shapes are the same role.
+        # Per atom, its (object, shape) occurrences of class objects: the shape names the atom with that
+        # object as a hole and the other class objects as their class, so equal shapes are the same role.
         shapes: dict[tuple[object, ...], int] = {}
-        self.occurrences: list[tuple[tuple[int, str, int], ...]] = []
+        self.occurrences: list[tuple[tuple[str, int], ...]] = []
         for atom in task.atoms:
             found = []
             for position, name in enumerate(atom.args):
-                k = self.class_of.get(name)
-                if k is None:
-                    continue
-                key = (atom.predicate, atom.negated, position, *(self._role(other) for other in atom.args))
-                found.append((k, name, shapes.setdefault(key, len(shapes))))
+                if name in self.class_of:
+                    key = (atom.predicate, atom.negated, position, *(self._role(other) for other in atom.args))
+                    found.append((name, shapes.setdefault(key, len(shapes))))
             self.occurrences.append(tuple(found))
 
     def _role(self, name: str) -> object:
@@ -66,26 +64,22 @@ class Symmetry:
             return condition
         profiles: dict[str, list[int]] = defaultdict(list)
         for atom in touched:
-            for _, name, shape in occurrences[atom]:
+            for name, shape in occurrences[atom]:
                 profiles[name].append(shape)
         mapping: dict[str, str] = {}
+        rank = self.rank
         for members in self.classes:
             present = [o for o in members if o in profiles]
             if not present:
                 continue
-            rank = self.rank
             ordered = sorted(present, key=lambda o: (sorted(profiles[o]), rank[o]))
             for target, source in zip(members, ordered, strict=False):
                 if target != source:
                     mapping[source] = target
         if not mapping:
             return condition
-        return (condition - frozenset(touched)) | frozenset(self._image(atom, mapping) for atom in touched)
-
-    def _image(self, atom_id: int, mapping: dict[str, str]) -> int:
-        atom = self.task.atoms[atom_id]
-        moved = Atom(atom.predicate, tuple(mapping.get(name, name) for name in atom.args), atom.negated)
-        return self.task.atom_ids[moved]
+        atoms, ids = self.task.atoms, self.task.atom_ids
+        return (condition - frozenset(touched)) | frozenset(ids[_renamed(atoms[i], mapping)] for i in touched)
 
 
 def find_symmetry(
@@ -198,4 +192,9 @@ class _Swaps:
 
 
 def _swapped(atom: Atom, a: str, b: str) -> Atom:
-    return Atom(atom.predicate, tuple(b if n == a else a if n == b else n for n in atom.args), atom.negated)
+    return _renamed(atom, {a: b, b: a})
+
+
+def _renamed(atom: Atom, mapping: dict[str, str]) -> Atom:
+    """``atom`` with its objects renamed by ``mapping`` (the others kept)."""
+    return Atom(atom.predicate, tuple(mapping.get(name, name) for name in atom.args), atom.negated)
