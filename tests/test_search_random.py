@@ -34,7 +34,7 @@ from hbtp.planning import Hints, PlanResult, Status, plan
 from helpers import RandomCase, brute_force, is_subsequence, plan_cost, random_case, reaches, run_tree
 
 SEEDS = range(600)
-HEURISTICS = ("none", "hmax", "lm", "lmcut")
+HEURISTICS = ("none", "hmax", "lm", "lmcut", "seq")
 
 
 @functools.cache

@@ -66,7 +66,7 @@ class Instance:
 @dataclass(frozen=True)
 class PddlConfig:
     planners: tuple[str, ...] = ("obtea",)
-    heuristic: HeuristicName = "lmcut"
+    heuristic: HeuristicName = "seq"
     time_limit: float = 60.0
     validate: bool = False
     #: Symmetry pruning (interchangeable objects: SearchConfig.symmetry) in hbtp's searches.

@@ -429,9 +429,9 @@ def payoff(
 @click.option(
     "--heuristic",
     type=click.Choice(list(HEURISTICS)),
-    default="lmcut",
+    default=PddlConfig.heuristic,
     show_default=True,
-    help="LLM-free heuristic (lmcut: the strongest, for IPC-style domains).",
+    help="LLM-free heuristic (seq: lmcut and the state equation, the strongest; needs the lp extra).",
 )
 @click.option(
     "-t", "--time-limit", type=float, default=60.0, show_default=True, help="Seconds per run (load, then search)."

@@ -96,7 +96,8 @@ search_options = option_group(
         default="lm",
         show_default=True,
         help="LLM-free admissible heuristic: lm (landmarks, max with hmax), lmcut (also h² and LM-cut: stronger, "
-        "costlier; for IPC-style PDDL domains), hmax, or none (the paper's planners).",
+        "costlier; for IPC-style PDDL domains), seq (lmcut and the state equation: counts, prunes conditions no "
+        "state can hold; lp extra), hmax, or none (the paper's planners).",
     ),
     click.option(
         "--alpha", type=float, default=10_000, show_default=True, help="HBTP-O discount divisor, from 1 to 10^9."

@@ -24,6 +24,10 @@ joins the cheap part; it is left out on tasks with more atoms than
 :class:`Deferred`: the open list is ordered by ``max(hmax, lm, h²)`` and a condition's LM-cut is
 computed when it is first taken off the list (it goes back with the higher value if LM-cut raises
 it), and the search re-opens a condition it reaches again more cheaply, which keeps OBTEA optimal.
+
+``seq``: ``lmcut`` and the state equation (:mod:`hbtp.planning.flow`), a linear program that counts
+how often each action must run; its costly part is the larger of the two (LM-cut is not computed for
+a condition the state equation proves unreachable). It needs HiGHS (the ``lp`` extra).
 """
 
 from __future__ import annotations
@@ -35,11 +39,12 @@ from typing import Literal, Protocol, overload
 
 from hbtp.deadline import Deadline
 from hbtp.logic.task import GroundAction, GroundTask
+from hbtp.planning.flow import StateEquation
 from hbtp.planning.lmcut import LmCut
 from hbtp.planning.pairs import PairCosts, pair_costs
 
-HeuristicName = Literal["none", "hmax", "lm", "lmcut"]
-HEURISTICS: tuple[str, ...] = ("none", "hmax", "lm", "lmcut")
+HeuristicName = Literal["none", "hmax", "lm", "lmcut", "seq"]
+HEURISTICS: tuple[str, ...] = ("none", "hmax", "lm", "lmcut", "seq")
 _SETUP = "setting up the heuristic"
 
 
@@ -427,7 +432,7 @@ def build_heuristic(
             return HMax(analysis.hmax)
         costs = {a.index: discounts.get(a.index, a.cost * scale) for a in actions}
         return HMax(hmax_table(task, actions, costs, deadline))
-    if name not in ("lm", "lmcut"):
+    if name not in ("lm", "lmcut", "seq"):
         raise ValueError(f"unknown heuristic {name!r}")
     # Shares: cached for the space (relevant = atoms some precondition needs), scaled, then patched
     # for goal atoms no precondition needs and for discounted actions (their values only go down).
@@ -449,8 +454,23 @@ def build_heuristic(
     cheap = LandmarkSum(analysis.landmarks, share, task.initial_state, analysis.pre_landmarks, hmax)
     if name == "lm":
         return cheap
+    step_cost = None if plain else (lambda a: discounts.get(a.index, a.cost * scale))
+    return _deferred(name, task, actions, goal, cheap, step_cost, deadline)
+
+
+def _deferred(
+    name: str,
+    task: GroundTask,
+    actions: Sequence[GroundAction],
+    goal: Collection[int],
+    cheap: Heuristic,
+    step_cost: Callable[[GroundAction], float] | None,
+    deadline: Deadline | None,
+) -> Heuristic:
+    """``lmcut`` or ``seq`` over ``cheap`` (``step_cost``: the changed action costs, if any)."""
     space = _lmcut_space(task, actions, goal)
-    changed = None if plain else {a.index: discounts.get(a.index, a.cost * scale) for a in space}
+    plain = step_cost is None
+    changed = None if step_cost is None else {a.index: step_cost(a) for a in space}
     if plain and len(actions) == len(task.actions):  # the whole space's h², kept with the task for every goal
         pairs = task.derived((PairCosts, "full"), lambda: pair_costs(task, actions, None, deadline))
     else:
@@ -459,13 +479,28 @@ def build_heuristic(
         lmcut = task.derived((LmCut, "full"), lambda: LmCut(task, space, None, deadline))
     else:
         lmcut = LmCut(task, space, changed, deadline)
-    return Deferred(_with_pairs(cheap, pairs), lmcut)
+    if name == "lmcut":
+        return Deferred(_with_pairs(cheap, pairs), lmcut)
+    equation = StateEquation(task, space, pairs, changed, deadline)
+    return Deferred(_with_pairs(cheap, pairs), Costlier(equation, lmcut))
 
 
 def _with_pairs(cheap: Heuristic, pairs: PairCosts | None) -> Heuristic:
     """The larger of ``cheap`` and h² (both consistent, so their maximum is), or ``cheap`` alone for a
     task too large for h²."""
     return cheap if pairs is None else Larger(cheap, pairs)
+
+
+class Costlier:
+    """The larger of two costly estimates, the second computed only when the first is finite."""
+
+    def __init__(self, first: Callable[[frozenset[int]], float], second: Callable[[frozenset[int]], float]) -> None:
+        self.first = first
+        self.second = second
+
+    def __call__(self, condition: frozenset[int]) -> float:
+        value = self.first(condition)
+        return value if math.isinf(value) else max(value, self.second(condition))
 
 
 class Larger:

@@ -20,6 +20,7 @@ from hbtp.planning.costs import (
     UnitCosts,
     check_alpha,
 )
+from hbtp.planning.flow import require_solver
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
 from hbtp.planning.hints import Hints, ResolvedHints, pruned_action_space, resolve_hints
 from hbtp.planning.limits import Limits
@@ -68,6 +69,8 @@ def planner_config(
         raise InputError(f"unknown planner {name!r}; choose one of: {', '.join(PLANNERS)}") from None
     if heuristic not in HEURISTICS:
         raise InputError(f"unknown heuristic {heuristic!r}; choose one of: {', '.join(HEURISTICS)}")
+    if heuristic == "seq":
+        require_solver()
     costs = base.costs.with_alpha(check_alpha(alpha))
     return dataclasses.replace(base, heuristic=heuristic, costs=costs, symmetry=symmetry)
 

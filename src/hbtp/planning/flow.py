@@ -1,0 +1,219 @@
+"""The state equation (Bonet, 2013) from s0 to a regressed condition, as a linear program.
+
+A plan from s0 to a state that holds a condition ``c`` applies each action ``a`` some number of times
+``Y_a``. Each application changes each atom ``f`` by a known amount, or within a known range:
+
+- ``f`` added and not a precondition: +1 when ``f`` is false wherever ``a`` applies (``f`` is deleted
+  by ``a`` or forms an h² mutex with a precondition), else 0 or +1;
+- ``f`` deleted and not added: -1 when ``f`` is a precondition, 0 when it forms an h² mutex with one
+  (it is false already), else -1 or 0;
+- any other atom: 0.
+
+So ``f`` ends at ``s0(f)`` plus the sum of its changes, and that value must lie in what ``c`` allows:
+exactly 1 for an atom of ``c``, 0 for an atom that forms an h² mutex with an atom of ``c`` (no reachable
+state holds both), 0 or 1 otherwise. The cheapest ``Y >= 0`` (as real numbers) that satisfies every
+atom costs at most the plan, so it is an admissible estimate of reaching ``c``; no such ``Y`` means
+no plan reaches ``c`` (``inf``). Unlike the delete relaxation it counts: a condition in which a lift
+carries one passenger by its counter and two by the passengers boarded has no solution, nor does one
+that needs more packages delivered than were picked up. Those are the spurious conditions of
+regression that no pair of atoms reveals.
+
+The program is solved by HiGHS (the ``lp`` extra, ``highspy``) with one model per action space; each
+condition only changes the rows' bounds, and the solver starts from the previous basis. With whole
+action costs the estimate is rounded up (plan costs are whole numbers).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+from hbtp.deadline import Deadline
+from hbtp.errors import InputError
+from hbtp.logic.task import GroundAction, GroundTask
+from hbtp.planning.pairs import PairCosts
+
+_INSTALL = "the state-equation heuristic (seq) needs HiGHS: pip install 'hbtp[lp]' (highspy)"
+_SETUP = "setting up the state equation"
+#: Slack for the solver's rounding when whole costs are rounded up.
+_EPSILON = 1e-6
+
+
+class StateEquation:
+    """``h^SEQ(s0 → c)`` over an action space (costs by action index may be overridden), using the h²
+    mutexes of ``pairs`` (without them every atom outside ``c`` may end either way)."""
+
+    def __init__(
+        self,
+        task: GroundTask,
+        actions: Sequence[GroundAction],
+        pairs: PairCosts | None,
+        costs: Mapping[int, float] | None = None,
+        deadline: Deadline | None = None,
+    ) -> None:
+        import numpy as np
+
+        self._np = np
+        count = len(task.atoms)
+        self.together = _reachable_pairs(pairs, count)
+        cost = [float(costs[a.index] if costs is not None else a.cost) for a in actions]
+        self.whole = all(c.is_integer() for c in cost)
+        low, high = _changes(actions, count, self.together)
+        if deadline is not None:
+            deadline.check(_SETUP)
+        self.s0 = np.zeros(count)
+        self.s0[list(task.initial_state)] = 1.0
+        self.static = np.array([not low[f] and not high[f] for f in range(count)], dtype=bool)
+        self.highs, self.rows = _model(np, low, high, cost)
+
+    def __call__(self, condition: Iterable[int]) -> float:
+        np = self._np
+        atoms = list(condition)
+        lower = np.zeros(len(self.s0))
+        lower[atoms] = 1.0
+        if self.together is None:
+            upper = np.ones(len(self.s0))
+        else:  # the atoms a reachable state may hold beside every atom of the condition
+            upper = np.logical_and.reduce(self.together[atoms], axis=0).astype(float)
+        static, s0 = self.static, self.s0
+        if np.any((s0[static] < lower[static]) | (s0[static] > upper[static])):
+            return math.inf
+        rows = self.rows
+        row_lower = np.where(rows.has_lower, (lower - s0)[rows.atom], -np.inf)
+        row_upper = np.where(rows.has_upper, (upper - s0)[rows.atom], np.inf)
+        highs = self.highs
+        highs.changeRowsBounds(len(rows.atom), rows.index, row_lower, row_upper)
+        highs.run()
+        status = highs.modelStatusToString(highs.getModelStatus())
+        if status == "Infeasible":
+            return math.inf
+        if status != "Optimal":  # the solver gave up: no information, which is admissible
+            return 0.0
+        value = max(0.0, float(highs.getObjectiveValue()))
+        return float(math.ceil(value - _EPSILON)) if self.whole else value
+
+
+def _reachable_pairs(pairs: PairCosts | None, count: int) -> Any:
+    """``together[p, q]``: whether some reachable state may hold ``p`` and ``q`` (a numpy bool matrix;
+    ``None`` without h²)."""
+    if pairs is None:
+        return None
+    import numpy as np
+
+    size = (count + 7) // 8
+    rows = b"".join((history[-1][1] if history else 0).to_bytes(size, "little") for history in pairs.history)
+    bits = np.unpackbits(np.frombuffer(rows, dtype=np.uint8).reshape(count, size), axis=1, bitorder="little")
+    return bits[:, :count].astype(bool)
+
+
+def _changes(
+    actions: Sequence[GroundAction], count: int, together: Any
+) -> tuple[list[dict[int, int]], list[dict[int, int]]]:
+    """Per atom, the least and the most each action (by its slot) changes it by (only the nonzero)."""
+    low: list[dict[int, int]] = [{} for _ in range(count)]
+    high: list[dict[int, int]] = [{} for _ in range(count)]
+
+    def false_before(atom: int, action: GroundAction) -> bool:
+        return together is not None and any(not together[atom, p] for p in action.pre)
+
+    for slot, action in enumerate(actions):
+        for atom in action.add - action.pre:
+            high[atom][slot] = 1
+            if false_before(atom, action):
+                low[atom][slot] = 1
+        for atom in action.delete - action.add:
+            if atom in action.pre:
+                low[atom][slot] = high[atom][slot] = -1
+            elif not false_before(atom, action):
+                low[atom][slot] = -1
+    return low, high
+
+
+class _Rows:
+    """The program's rows: the atom of each, and which of its bounds it carries."""
+
+    def __init__(self, np: Any, atom: list[int], has_lower: list[bool], has_upper: list[bool]) -> None:
+        self.atom = np.array(atom, dtype=np.int64)
+        self.has_lower = np.array(has_lower, dtype=bool)
+        self.has_upper = np.array(has_upper, dtype=bool)
+        self.index = np.arange(len(atom), dtype=np.int32)
+
+
+def _model(np: Any, low: list[dict[int, int]], high: list[dict[int, int]], cost: list[float]) -> tuple[Any, _Rows]:
+    """The HiGHS model: one column per action (its count), and per changed atom one row (``low ==
+    high``: its change is known) or two (the least change bounds the final value from above, the
+    most from below)."""
+    highspy = _solver()
+    columns: list[list[tuple[int, float]]] = [[] for _ in cost]
+    atoms: list[int] = []
+    has_lower: list[bool] = []
+    has_upper: list[bool] = []
+
+    def row(atom: int, coefficients: dict[int, int], lower: bool, upper: bool) -> None:
+        for slot, value in coefficients.items():
+            columns[slot].append((len(atoms), float(value)))
+        atoms.append(atom)
+        has_lower.append(lower)
+        has_upper.append(upper)
+
+    for atom, (least, most) in enumerate(zip(low, high, strict=True)):
+        if least == most:
+            if least:
+                row(atom, least, True, True)
+        else:
+            row(atom, least, False, True)
+            row(atom, most, True, False)
+    lp = highspy.HighsLp()
+    lp.num_col_ = len(cost)
+    lp.num_row_ = len(atoms)
+    lp.col_cost_ = np.array(cost, dtype=float)
+    lp.col_lower_ = np.zeros(len(cost))
+    lp.col_upper_ = np.full(len(cost), highspy.kHighsInf)
+    lp.row_lower_ = np.full(len(atoms), -highspy.kHighsInf)
+    lp.row_upper_ = np.full(len(atoms), highspy.kHighsInf)
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+    lp.a_matrix_.start_ = np.cumsum([0, *map(len, columns)]).astype(np.int32)
+    lp.a_matrix_.index_ = np.array([r for column in columns for r, _ in column], dtype=np.int32)
+    lp.a_matrix_.value_ = np.array([v for column in columns for _, v in column], dtype=float)
+    highs = _new_solver(highspy)
+    highs.setOptionValue("output_flag", False)
+    highs.passModel(lp)
+    return highs, _Rows(np, atoms, has_lower, has_upper)
+
+
+def require_solver() -> None:
+    """Check that HiGHS can be imported (:class:`~hbtp.errors.InputError` saying how to install it)."""
+    _solver()
+
+
+def _solver() -> Any:
+    """The ``highspy`` module, or an error that says how to install it."""
+    try:
+        import highspy
+    except ImportError:
+        raise InputError(_INSTALL) from None
+    return highspy
+
+
+_started: list[bool] = []  # whether this process has made a solver (HiGHS prints its banner once)
+
+
+def _new_solver(highspy: Any) -> Any:
+    """A new HiGHS solver, silent. The first one of the process is made with standard output closed,
+    which takes HiGHS's banner."""
+    if _started:
+        return highspy.Highs()
+    _started.append(True)
+    sys.stdout.flush()
+    saved = os.dup(1)
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 1)
+        return highspy.Highs()
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(null)
