@@ -10,6 +10,7 @@
   and landmarks see nothing wrong;
 * OBTEA with ``seq`` finds Fast Downward's optimal cost on shipped IPC instances (elevators, transport)
   with less than half the conditions ``lmcut`` explores, and its tree reaches the goal;
+* the same instance gives the same tree every time;
 * without HiGHS the heuristic is refused in one line that says how to install it, and the CLI prints
   no solver banner.
 """
@@ -117,6 +118,19 @@ def test_obtea_with_seq_is_optimal_and_explores_less_on_ipc_instances(domain: st
     assert with_seq.cost == with_lmcut.cost == optimum
     assert simulate(full_tree(with_seq.expansions), scenario.task).reached(goal)
     assert with_seq.stats.explored * 2 < with_lmcut.stats.explored
+
+
+@pytest.mark.skipif(
+    not (IPC / "transport-opt08-strips").is_dir(), reason="the shared IPC benchmarks are not beside the checkout"
+)
+def test_seq_plans_the_same_tree_every_time() -> None:
+    def expansions() -> tuple[object, ...]:
+        files = IPC / "transport-opt08-strips"
+        loaded = load_pddl_scenario(files / "domain.pddl", files / "p02.pddl")
+        scenario, goal = loaded.resolve_goal(loaded.problem_goal())
+        return plan(scenario.task, goal, "obtea", heuristic="seq", mutexes=scenario.mutexes).expansions
+
+    assert expansions() == expansions()
 
 
 def test_without_highs_seq_is_refused_in_one_line(monkeypatch: pytest.MonkeyPatch) -> None:
