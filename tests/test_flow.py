@@ -11,8 +11,8 @@
 * OBTEA with ``seq`` finds Fast Downward's optimal cost on shipped IPC instances (elevators, transport)
   with less than half the conditions ``lmcut`` explores, and its tree reaches the goal;
 * the same instance gives the same tree every time;
-* without HiGHS the heuristic is refused in one line that says how to install it, and the CLI prints
-  no solver banner.
+* without HiGHS the heuristic is refused in one line that says how to install it (``bench pddl``:
+  before any run, nothing written), and the CLI prints no solver banner.
 """
 
 from __future__ import annotations
@@ -28,6 +28,8 @@ import pytest
 
 from hbtp.bt import full_tree
 from hbtp.bt.simulate import simulate
+from hbtp.cli import main
+from hbtp.cli.exit_codes import ExitCode
 from hbtp.domains import DomainBuilder, load_pddl_scenario
 from hbtp.errors import InputError
 from hbtp.logic.task import GroundTask
@@ -138,6 +140,19 @@ def test_without_highs_seq_is_refused_in_one_line(monkeypatch: pytest.MonkeyPatc
     with pytest.raises(InputError, match=r"pip install 'hbtp\[lp\]'") as raised:
         planner_config("obtea", heuristic="seq")
     assert "\n" not in str(raised.value)
+
+
+def test_bench_pddl_without_highs_stops_before_it_starts(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setitem(sys.modules, "highspy", None)
+    (tmp_path / "suite" / "d").mkdir(parents=True)
+    out = tmp_path / "out"
+    assert main(["bench", "pddl", str(tmp_path / "suite"), "--no-progress", "-o", str(out)]) == ExitCode.INPUT
+    assert capsys.readouterr().err.strip().splitlines() == [
+        "hbtp: error: the state-equation heuristic (seq) needs HiGHS: pip install 'hbtp[lp]' (highspy)"
+    ]
+    assert not out.exists()
 
 
 def test_the_cli_plans_with_seq_and_prints_no_solver_banner() -> None:

@@ -251,6 +251,8 @@ def known(run: PddlRun) -> dict[str, Any]:
 
 def run_pddl(folder: Path, config: PddlConfig, out: Path, execution: Execution = DEFAULT_EXECUTION) -> dict[str, Any]:
     """Run (or resume) every instance under ``folder`` with every planner into ``out``."""
+    for planner in config.planners:  # an unknown name or a missing solver stops the run before it starts
+        planner_config(planner, heuristic=config.heuristic, symmetry=config.symmetry)
     instances = discover(folder)
     references = read_references(folder)
     work = []
