@@ -3,8 +3,8 @@
 A plan from s0 to a state that holds a condition ``c`` applies each action ``a`` some number of times
 ``Y_a``. Each application changes each atom ``f`` by a known amount, or within a known range:
 
-- ``f`` added and not a precondition: +1 when ``f`` is false wherever ``a`` applies (``f`` is deleted
-  by ``a`` or forms an h² mutex with a precondition), else 0 or +1;
+- ``f`` added and not a precondition: +1 when ``f`` is false wherever ``a`` applies (it forms an h²
+  mutex with a precondition), else 0 or +1;
 - ``f`` deleted and not added: -1 when ``f`` is a precondition, 0 when it forms an h² mutex with one
   (it is false already), else -1 or 0;
 - any other atom: 0.
@@ -68,6 +68,7 @@ class StateEquation:
         self.s0[list(task.initial_state)] = 1.0
         self.static = np.array([not low[f] and not high[f] for f in range(count)], dtype=bool)
         self.highs, self.rows = _model(np, low, high, cost)
+        self.status = _solver().HighsModelStatus
 
     def __call__(self, condition: Iterable[int]) -> float:
         np = self._np
@@ -87,10 +88,10 @@ class StateEquation:
         highs = self.highs
         highs.changeRowsBounds(len(rows.atom), rows.index, row_lower, row_upper)
         highs.run()
-        status = highs.modelStatusToString(highs.getModelStatus())
-        if status == "Infeasible":
+        status = highs.getModelStatus()
+        if status == self.status.kInfeasible:
             return math.inf
-        if status != "Optimal":  # the solver gave up: no information, which is admissible
+        if status != self.status.kOptimal:  # the solver gave up: no information, which is admissible
             return 0.0
         value = max(0.0, float(highs.getObjectiveValue()))
         return float(math.ceil(value - _EPSILON)) if self.whole else value
