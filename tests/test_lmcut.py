@@ -4,6 +4,8 @@
   the delete relaxation (h+, by brute force), and it is at least h_max;
 * on gripper it finds the textbook landmarks (a pick and a drop per ball, one move): 2n + 1 = h+;
 * OBTEA with ``lmcut`` is optimal against the brute-force optimum (also in tests/test_search_random.py);
+* a Deferred heuristic's costly estimates are computed one at a time: the second only for a
+  condition the first did not push beyond the priority it came off the list with;
 * the search's re-opening keeps OBTEA optimal under an admissible, deliberately inconsistent
   estimate (the exact cost for half of the conditions, 0 for the rest), and does re-open; the tree,
   with the old branches of re-opened conditions, reaches the goal from every condition in it.
@@ -226,6 +228,67 @@ def test_reopening_keeps_obtea_optimal_under_an_inconsistent_estimate(monkeypatc
         for expansion in result.expansions:  # a re-opened condition's old branch stays, and is sound
             assert run_tree(tree, case.task, expansion.condition, ticks).reached, seed
     assert reopened > 0
+
+
+class _Exact:
+    """The cost of reaching a condition from s0 (brute force, ``inf``: never); counts what it is asked."""
+
+    def __init__(self, task: GroundTask, zero: bool = False) -> None:
+        self.task = task
+        self.zero = zero
+        self.asked: list[frozenset[int]] = []
+
+    def __call__(self, condition: frozenset[int]) -> float:
+        self.asked.append(condition)
+        if self.zero:
+            return 0.0
+        optimum, _ = brute_force(self.task, condition)
+        return math.inf if optimum is None else float(optimum)
+
+
+@pytest.mark.parametrize("first_is_exact", [True, False])
+def test_deferred_estimates_are_computed_one_at_a_time(monkeypatch: pytest.MonkeyPatch, first_is_exact: bool) -> None:
+    """Two costly estimates. With the exact cost first, a condition it puts beyond the optimum is not
+    taken off the list again, so the second is asked about fewer conditions, and only about ones the
+    first was asked about; with 0 first (it raises nothing), the second is asked about every one.
+    OBTEA stays optimal either way and its tree reaches the goal."""
+    made: list[tuple[_Exact, _Exact]] = []
+
+    def lazy(
+        name: str, task: GroundTask, actions: Sequence[GroundAction], goal: Collection[int], **options: object
+    ) -> Deferred:
+        hmax = build_heuristic("hmax", task, actions, goal, **options)  # type: ignore[arg-type]
+        assert hmax is not None
+        parts = (_Exact(task, zero=not first_is_exact), _Exact(task, zero=first_is_exact))
+        made.append(parts)
+        return Deferred(_Zero(hmax), *parts)
+
+    monkeypatch.setattr(search_module, "build_heuristic", lazy)
+    first_asked = second_asked = 0
+    for seed in range(60):
+        case = random_case(seed)
+        result = plan(case.task, case.goal, "obtea", heuristic="lmcut")
+        if not made:  # the goal holds in s0, or a literal is never reachable: nothing to estimate
+            assert (result.cost if result.solved else None) == case.optimum in (0, None), seed
+            continue
+        first, second = made.pop()
+        assert set(second.asked) <= set(first.asked), seed
+        first_asked, second_asked = first_asked + len(first.asked), second_asked + len(second.asked)
+        if case.optimum is None:
+            assert not result.solved, seed
+            continue
+        assert result.cost == case.optimum, seed
+        tree = full_tree(result.expansions)
+        assert run_tree(tree, case.task, case.task.initial_state, 2 * len(result.expansions) + 2).reached, seed
+    if first_is_exact:  # computing both at once would ask the second as often as the first
+        assert second_asked < first_asked
+    else:
+        assert second_asked == first_asked
+
+
+def test_a_deferred_heuristic_needs_a_costly_part() -> None:
+    with pytest.raises(ValueError, match="costly part"):
+        Deferred(_Zero(HMax([])))
 
 
 def test_reopening_finds_the_path_an_inconsistent_estimate_hid(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -26,8 +26,10 @@ computed when it is first taken off the list (it goes back with the higher value
 it), and the search re-opens a condition it reaches again more cheaply, which keeps OBTEA optimal.
 
 ``seq``: ``lmcut`` and the state equation (:mod:`hbtp.planning.flow`), a linear program that counts
-how often each action must run; its costly part is the larger of the two (LM-cut is not computed for
-a condition the state equation proves unreachable). It needs HiGHS (the ``lp`` extra).
+how often each action must run; its costly parts are the state equation, then LM-cut, evaluated
+lazily by the search (LM-cut is not computed for a condition the state equation proves unreachable,
+or puts beyond the priority at which it was taken off the list until it comes off again). It needs
+HiGHS (the ``lp`` extra).
 """
 
 from __future__ import annotations
@@ -385,11 +387,14 @@ class LandmarkSum:
 
 
 class Deferred:
-    """A cheap consistent heuristic that orders the open list, and a costly admissible one that
-    ``refine`` evaluates when the search first takes a condition off the list (see the module
-    docstring): the search re-opens conditions under it."""
+    """A cheap consistent heuristic that orders the open list, and costly admissible ones that the
+    search evaluates one at a time when it takes a condition off the list (see the module
+    docstring): the heuristic's value is the largest of them all. The search re-opens conditions
+    under it."""
 
-    def __init__(self, cheap: Heuristic, costly: Callable[[frozenset[int]], float]) -> None:
+    def __init__(self, cheap: Heuristic, *costly: Callable[[frozenset[int]], float]) -> None:
+        if not costly:
+            raise ValueError("a deferred heuristic needs a costly part")
         self.cheap = cheap
         self.costly = costly
 
@@ -400,9 +405,14 @@ class Deferred:
         return self.cheap.precondition_bound(action)
 
     def refine(self, condition: frozenset[int]) -> float:
-        """The costly estimate of ``condition``. The heuristic's value is the larger of the two; the
-        search already holds the cheap one (a condition's priority), so only this one is computed."""
-        return self.costly(condition)
+        """The largest costly estimate of ``condition`` (the search already holds the cheap one, a
+        condition's priority, so only these are computed; one that is ``inf`` ends the others)."""
+        best = 0.0
+        for part in self.costly:
+            best = max(best, part(condition))
+            if math.isinf(best):
+                break
+        return best
 
 
 def build_heuristic(
@@ -482,25 +492,13 @@ def _deferred(
     if name == "lmcut":
         return Deferred(_with_pairs(cheap, pairs), lmcut)
     equation = StateEquation(task, space, pairs, changed, deadline)
-    return Deferred(_with_pairs(cheap, pairs), Costlier(equation, lmcut))
+    return Deferred(_with_pairs(cheap, pairs), equation, lmcut)
 
 
 def _with_pairs(cheap: Heuristic, pairs: PairCosts | None) -> Heuristic:
     """The larger of ``cheap`` and h² (both consistent, so their maximum is), or ``cheap`` alone for a
     task too large for h²."""
     return cheap if pairs is None else Larger(cheap, pairs)
-
-
-class Costlier:
-    """The larger of two costly estimates, the second computed only when the first is finite."""
-
-    def __init__(self, first: Callable[[frozenset[int]], float], second: Callable[[frozenset[int]], float]) -> None:
-        self.first = first
-        self.second = second
-
-    def __call__(self, condition: frozenset[int]) -> float:
-        value = self.first(condition)
-        return value if math.isinf(value) else max(value, self.second(condition))
 
 
 class Larger:

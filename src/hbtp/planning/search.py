@@ -16,9 +16,11 @@ Speed: actions are indexed by the atoms they add; the best known value per condi
 (Algorithm 1, line 11) and stale heap entries are skipped; a condition is pruned when an expanded
 subset of it was reached at no higher cost (the g-check keeps this safe under A*); conditions with
 mutually exclusive literals are pruned using the domain's mutexes. Under a
-:class:`~hbtp.planning.heuristics.Deferred` heuristic (``lmcut``), a condition's costly estimate is
-computed when it is first taken off the open list (it is queued again if that raises its priority),
-and a condition reached again more cheaply after its expansion is re-opened: expanded again, as a new
+:class:`~hbtp.planning.heuristics.Deferred` heuristic (``lmcut``, ``seq``), a condition's costly
+estimates are computed when it is taken off the open list, one at a time: as soon as one raises its
+priority it is queued again, and the next is computed only if it comes off the list again (lazy
+evaluation: a condition whose first estimate puts it beyond the solution's cost never pays for the
+others). A condition reached again more cheaply after its expansion is re-opened: expanded again, as a new
 branch whose parent was expanded before it (the old branch stays, costlier, and still sound).
 
 Ties are broken by the number of heuristic actions still owed, then by the number of literals false
@@ -67,8 +69,9 @@ class SearchConfig:
 # An open-list entry: (priority, owed, unmet, order, g, condition, stage), compared left to right:
 # the priority, then the number of actions p̂ still owes, the number of literals false in s0, the
 # insertion order; then g, the condition and the entry's stage: _READY to expand, _RESUME the
-# condition's pending children (see _Search.generate), or _UNREFINED (the costly estimate of a
-# Deferred heuristic is still to be computed). A plain tuple: a NamedTuple costs 0.3 µs more per push.
+# condition's pending children (see _Search.generate), or _UNREFINED + k (the costly estimates of a
+# Deferred heuristic from its k-th on are still to be computed). A plain tuple: a NamedTuple costs
+# 0.3 µs more per push.
 _Entry = tuple[Number, int, int, int, Number, frozenset[int], int]
 _READY, _RESUME, _UNREFINED = 0, 1, 2
 
@@ -385,7 +388,7 @@ class _Search:
             if condition not in roots and expanded.has_subset(condition, node.g):
                 self.pruned_subset += 1
                 continue
-            if stage == _UNREFINED and self.refined(condition, node, priority):
+            if stage >= _UNREFINED and self.refined(condition, node, priority, stage):
                 continue
             self.close(condition, node)
             if final is None and condition <= self.s0:
@@ -408,15 +411,20 @@ class _Search:
             self.stopped = None
         return self.result(final)
 
-    def refined(self, condition: frozenset[int], node: _Node, priority: Number) -> bool:
-        """Compute the Deferred heuristic's costly estimate; queue the condition again (and say so)
-        if it raises the priority (``g`` plus the cheap estimate: the heuristic is their maximum)."""
+    def refined(self, condition: frozenset[int], node: _Node, priority: Number, stage: int) -> bool:
+        """Compute the Deferred heuristic's costly estimates from the one ``stage`` names, one at a
+        time; as soon as one raises the priority (``g`` plus the cheap estimate: the heuristic is
+        their maximum), queue the condition again with the next estimate still to compute, and say
+        so. The others are computed only if the condition is taken off the list again."""
         assert self.deferred is not None
-        value = node.g + self.deferred.refine(condition)
-        if value <= priority:
-            return False
-        self.push(condition, node, value, _READY)
-        return True
+        parts = self.deferred.costly
+        for step in range(stage - _UNREFINED, len(parts)):
+            value = node.g + parts[step](condition)
+            if value > priority:
+                rest = step + 1 < len(parts) and not math.isinf(value)
+                self.push(condition, node, value, _UNREFINED + step + 1 if rest else _READY)
+                return True
+        return False
 
     def close(self, condition: frozenset[int], node: _Node) -> None:
         node.closed = True
