@@ -11,6 +11,7 @@
 * OBTEA with ``seq`` finds Fast Downward's optimal cost on shipped IPC instances (elevators, transport)
   with less than half the conditions ``lmcut`` explores, and its tree reaches the goal;
 * the same instance gives the same tree every time;
+* it still answers when another part of the process started HiGHS with more threads;
 * without HiGHS the heuristic is refused in one line that says how to install it (``bench pddl``:
   before any run, nothing written), and the CLI prints no solver banner.
 """
@@ -105,6 +106,30 @@ def test_it_sees_a_counter_that_disagrees_with_the_tokens() -> None:
     assert math.isinf(equation(task)(spurious))
     real = task.resolve_goal("Count(c2) & InBox(t0) & InBox(t1)").ids
     assert equation(task)(real) == brute_force(task, real)[0] == 2
+
+
+_AFTER_ANOTHER_SOLVER = """
+import highspy, math, sys
+sys.path.insert(0, {tests!r})
+from test_flow import counter_task, equation
+other = highspy.Highs()  # another part of the process starts HiGHS first, with its default threads
+other.setOptionValue("output_flag", False)
+other.addVar(0, 1)
+other.run()
+task = counter_task(3)
+seq = equation(task)
+print(seq(task.resolve_goal("Count(c2) & InBox(t0) & InBox(t1)").ids),
+      seq(task.resolve_goal("Count(c1) & InBox(t0) & InBox(t1)").ids))
+"""
+
+
+def test_it_still_solves_after_another_solver_set_the_threads() -> None:
+    """The state equation asks HiGHS for one thread; when the process's solver scheduler was started
+    with more, it keeps theirs rather than getting no answer (which would read as 0)."""
+    script = _AFTER_ANOTHER_SOLVER.format(tests=str(Path(__file__).parent))
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120, check=False)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split()[-2:] == ["2.0", "inf"]
 
 
 @pytest.mark.skipif(

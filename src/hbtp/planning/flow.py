@@ -19,8 +19,9 @@ that needs more packages delivered than were picked up. Those are the spurious c
 regression that no pair of atoms reveals.
 
 The program is solved by HiGHS (the ``lp`` extra, ``highspy``) with one model per action space; each
-condition only changes the rows' bounds, and the solver starts from the previous basis. With whole
-action costs the estimate is rounded up (plan costs are whole numbers).
+condition only changes the rows' bounds (read from per-atom tables made once), and the solver, on one
+thread, starts from the previous basis. With whole action costs the estimate is rounded up (plan
+costs are whole numbers).
 """
 
 from __future__ import annotations
@@ -64,29 +65,39 @@ class StateEquation:
         low, high = _changes(actions, count, self.together)
         if deadline is not None:
             deadline.check(_SETUP)
-        self.s0 = np.zeros(count)
-        self.s0[list(task.initial_state)] = 1.0
-        self.static = np.array([not low[f] and not high[f] for f in range(count)], dtype=bool)
-        self.highs, self.rows = _model(np, low, high, cost)
+        s0 = np.zeros(count)
+        s0[list(task.initial_state)] = 1.0
+        self.highs, rows = _model(np, low, high, cost)
         self.status = _solver().HighsModelStatus
+        # What a condition changes is precomputed per atom, so a call only indexes small arrays.
+        static = [f for f in range(count) if not low[f] and not high[f]]
+        self.impossible = _impossible(np, static, s0, self.together)
+        start = s0[rows.atom]
+        #: Each row's bounds when the condition holds no atom and allows every atom.
+        self.lower_base = np.where(rows.has_lower, -start, -np.inf)
+        self.upper_base = np.where(rows.has_upper, 1.0 - start, np.inf)
+        #: Per atom, the row its final value bounds from below (-1: none).
+        self.lower_row = np.full(count, -1, dtype=np.int64)
+        self.lower_row[rows.atom[rows.has_lower]] = np.flatnonzero(rows.has_lower)
+        #: ``allowed[p, r]``: whether a reachable state may hold ``p`` with row ``r``'s atom true.
+        self.allowed = None if self.together is None else self.together[:, rows.atom]
+        self.index = rows.index
 
     def __call__(self, condition: Iterable[int]) -> float:
-        np = self._np
-        atoms = list(condition)
-        lower = np.zeros(len(self.s0))
-        lower[atoms] = 1.0
-        if self.together is None:
-            upper = np.ones(len(self.s0))
-        else:  # the atoms a reachable state may hold beside every atom of the condition
-            upper = np.logical_and.reduce(self.together[atoms], axis=0).astype(float)
-        static, s0 = self.static, self.s0
-        if np.any((s0[static] < lower[static]) | (s0[static] > upper[static])):
+        atoms = condition if isinstance(condition, (frozenset, set)) else frozenset(condition)
+        if not self.impossible.isdisjoint(atoms):
             return math.inf
-        rows = self.rows
-        row_lower = np.where(rows.has_lower, (lower - s0)[rows.atom], -np.inf)
-        row_upper = np.where(rows.has_upper, (upper - s0)[rows.atom], np.inf)
+        np = self._np
+        listed = list(atoms)
+        row_lower = self.lower_base.copy()
+        hits = self.lower_row[listed]
+        row_lower[hits[hits >= 0]] += 1.0
+        if self.allowed is None:
+            row_upper = self.upper_base
+        else:  # an atom that forms an h² mutex with an atom of the condition ends false
+            row_upper = self.upper_base - ~np.logical_and.reduce(self.allowed[listed], axis=0)
         highs = self.highs
-        highs.changeRowsBounds(len(rows.atom), rows.index, row_lower, row_upper)
+        highs.changeRowsBounds(len(self.index), self.index, row_lower, row_upper)
         highs.run()
         status = highs.getModelStatus()
         if status == self.status.kInfeasible:
@@ -95,6 +106,16 @@ class StateEquation:
             return 0.0
         value = max(0.0, float(highs.getObjectiveValue()))
         return float(math.ceil(value - _EPSILON)) if self.whole else value
+
+
+def _impossible(np: Any, static: list[int], s0: Any, together: Any) -> frozenset[int]:
+    """The atoms no reachable condition holds, judged by the atoms no action changes: a static atom
+    false in s0, and an atom that forms an h² mutex with a static atom true in s0."""
+    found = {f for f in static if not s0[f]}
+    true = [f for f in static if s0[f]]
+    if together is not None and true:
+        found.update(np.flatnonzero(~np.logical_and.reduce(together[:, true], axis=1)).tolist())
+    return frozenset(found)
 
 
 def _reachable_pairs(pairs: PairCosts | None, count: int) -> Any:
@@ -181,7 +202,12 @@ def _model(np: Any, low: list[dict[int, int]], high: list[dict[int, int]], cost:
     lp.a_matrix_.value_ = np.array([v for column in columns for _, v in column], dtype=float)
     highs = _new_solver(highspy)
     highs.setOptionValue("output_flag", False)
+    # One thread halves the solver's fixed cost per run (its task scheduler). That scheduler is global
+    # to the process: if another part of it started HiGHS with more threads, keep its setting.
+    highs.setOptionValue("threads", 1)
     highs.passModel(lp)
+    if highs.run() == highspy.HighsStatus.kError:
+        highs.setOptionValue("threads", 0)
     return highs, _Rows(np, atoms, has_lower, has_upper)
 
 
