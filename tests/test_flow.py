@@ -108,6 +108,35 @@ def test_it_sees_a_counter_that_disagrees_with_the_tokens() -> None:
     assert equation(task)(real) == brute_force(task, real)[0] == 2
 
 
+def test_a_core_of_an_unreachable_condition_answers_for_the_conditions_that_hold_it() -> None:
+    task = counter_task(3)
+    seq = equation(task)
+    larger = task.resolve_goal("Count(c1) & InBox(t0) & InBox(t1) & OnTable(t2)").ids
+    assert math.isinf(seq(larger))
+    assert seq.answered_by_core == 0
+    smaller = task.resolve_goal("Count(c1) & InBox(t0) & InBox(t1)").ids  # OnTable(t2) is not in the proof
+    assert math.isinf(seq(smaller))
+    assert seq.answered_by_core == 1
+    real = task.resolve_goal("Count(c2) & InBox(t0) & InBox(t1) & OnTable(t2)").ids
+    assert seq(real) == brute_force(task, real)[0] == 2
+
+
+def test_cores_never_change_a_value() -> None:
+    """One equation asked many conditions in turn (its cores answer some) gives each the value of a
+    fresh one, which has no core yet."""
+    answered = 0
+    for seed in range(60):
+        task = random_case(seed).task
+        rng = random.Random(seed)
+        seq = equation(task)
+        atoms = range(len(task.atoms))
+        for _ in range(30):
+            condition = frozenset(rng.sample(atoms, rng.randint(1, min(6, len(atoms)))))
+            assert seq(condition) == equation(task)(condition), (seed, sorted(condition))
+        answered += seq.answered_by_core
+    assert answered > 0
+
+
 _AFTER_ANOTHER_SOLVER = """
 import highspy, math, sys
 sys.path.insert(0, {tests!r})
