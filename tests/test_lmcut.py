@@ -331,3 +331,35 @@ def test_planning_with_lmcut_is_deterministic_with_a_warm_table() -> None:
     assert first.solved
     assert first.expansions == again.expansions == fresh.expansions
     assert first.executed == again.executed == fresh.executed
+
+
+def reached_conditions(task: GroundTask, rng: random.Random, count: int) -> list[frozenset[int]]:
+    """Parts of states reached by random walks from s0 (finite, mostly nonzero estimates)."""
+    found = []
+    for _ in range(count):
+        state = task.initial_state
+        for _ in range(rng.randint(1, 6)):
+            applicable = [a for a in task.actions if a.pre <= state]
+            if not applicable:
+                break
+            action = rng.choice(applicable)
+            state = (state - action.delete) | action.add
+        found.append(frozenset(rng.sample(sorted(state), min(len(state), rng.randint(1, 4)))))
+    return found
+
+
+@pytest.mark.parametrize("seed", range(60))
+def test_lmcut_shares_rounds_between_conditions_without_changing_a_value(
+    seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """One LmCut asked many conditions in turn (sharing the states after cuts in its table, or, with
+    no room for the table, computing each round again) gives each the value of a fresh one."""
+    task = random_case(seed).task
+    conditions = reached_conditions(task, random.Random(seed), 20)
+    expected = [LmCut(task, task.actions)(c) for c in conditions]
+    kept = LmCut(task, task.actions)
+    assert [kept(c) for c in conditions] == expected
+    monkeypatch.setattr(lmcut_module, "_TABLE_SLOTS", 0)
+    full = LmCut(task, task.actions)
+    assert [full(c) for c in conditions] == expected
+    assert full.root.next == {}  # nothing was kept
