@@ -35,8 +35,8 @@ from hbtp.logic.task import GroundAction, GroundTask
 
 _INF = math.inf
 _SETUP = "setting up LM-cut"
-#: How many list slots the table of states after cuts may hold (8 bytes each: 256 MB, plus the values).
-_TABLE_SLOTS = 32_000_000
+#: How many list slots the table of states after cuts may hold (8 bytes each: 64 MB, plus the values).
+_TABLE_SLOTS = 8_000_000
 
 
 class LmCut:
