@@ -339,11 +339,10 @@ def reached_conditions(task: GroundTask, rng: random.Random, count: int) -> list
     for _ in range(count):
         state = task.initial_state
         for _ in range(rng.randint(1, 6)):
-            applicable = [a for a in task.actions if a.pre <= state]
+            applicable = [a for a in task.actions if a.applicable(state)]
             if not applicable:
                 break
-            action = rng.choice(applicable)
-            state = (state - action.delete) | action.add
+            state = rng.choice(applicable).progress(state)
         found.append(frozenset(rng.sample(sorted(state), min(len(state), rng.randint(1, 4)))))
     return found
 
