@@ -1,5 +1,8 @@
 """LM-cut from s0 to a regressed condition, and the search that evaluates it deferred and re-opens.
 
+* LM-cut's rounds in C (the optional extension) and in Python give the same values and leave the
+  same states (h_max, precondition values and choices, costs), to the last bit, on random tasks and
+  on the shipped scenarios; where the extension is built, everything else here runs with it too;
 * LM-cut is admissible: on random tasks and random conditions it never exceeds the optimal cost of
   the delete relaxation (h+, by brute force), and it is at least h_max;
 * on gripper it finds the textbook landmarks (a pick and a drop per ball, one move): 2n + 1 = h+;
@@ -23,7 +26,8 @@ from collections.abc import Collection, Iterable, Sequence
 import pytest
 
 from hbtp.bt import full_tree
-from hbtp.domains import DomainBuilder
+from hbtp.domains import DomainBuilder, load_scenario
+from hbtp.errors import PlanningError
 from hbtp.logic.task import GroundAction, GroundTask
 from hbtp.planning import plan
 from hbtp.planning.heuristics import Deferred, Heuristic, HMax, build_heuristic, hmax_table
@@ -32,6 +36,9 @@ from helpers import brute_force, random_case, relevant_conditions, run_tree
 
 search_module = importlib.import_module("hbtp.planning.search")
 lmcut_module = importlib.import_module("hbtp.planning.lmcut")
+#: The ways to make LM-cut's rounds here: in Python, and in C where the extension is built.
+KERNELS = [False, True] if lmcut_module.COMPILED else [False]
+needs_c = pytest.mark.skipif(not lmcut_module.COMPILED, reason="LM-cut's C extension is not built (no C compiler)")
 
 
 def relaxed_optimum(task: GroundTask, condition: frozenset[int]) -> float:
@@ -56,11 +63,12 @@ def relaxed_optimum(task: GroundTask, condition: frozenset[int]) -> float:
     return math.inf
 
 
+@pytest.mark.parametrize("compiled", KERNELS)
 @pytest.mark.parametrize("seed", range(150))
-def test_lmcut_lies_between_hmax_and_the_relaxed_optimum(seed: int) -> None:
+def test_lmcut_lies_between_hmax_and_the_relaxed_optimum(seed: int, compiled: bool) -> None:
     case = random_case(seed)
     task = case.task
-    lmcut = LmCut(task, task.actions)
+    lmcut = LmCut(task, task.actions, compiled=compiled)
     hmax = HMax(hmax_table(task, task.actions))
     rng = random.Random(seed)
     atoms = range(len(task.atoms))
@@ -111,7 +119,7 @@ def test_the_cut_from_the_zones_achievers_equals_the_forward_search(seed: int, m
         return cut
 
     monkeypatch.setattr(lmcut_module._Round, "_cut_actions", compared)
-    lmcut = LmCut(task, task.actions)
+    lmcut = LmCut(task, task.actions, compiled=False)
     values = [lmcut(c) for c in conditions]
     assert cuts > 0 or all(v in (0.0, math.inf) for v in values)
 
@@ -347,18 +355,92 @@ def reached_conditions(task: GroundTask, rng: random.Random, count: int) -> list
     return found
 
 
+@pytest.mark.parametrize("compiled", KERNELS)
 @pytest.mark.parametrize("seed", range(60))
 def test_lmcut_shares_rounds_between_conditions_without_changing_a_value(
-    seed: int, monkeypatch: pytest.MonkeyPatch
+    seed: int, compiled: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """One LmCut asked many conditions in turn (sharing the states after cuts in its table, or, with
     no room for the table, computing each round again) gives each the value of a fresh one."""
     task = random_case(seed).task
     conditions = reached_conditions(task, random.Random(seed), 20)
-    expected = [LmCut(task, task.actions)(c) for c in conditions]
-    kept = LmCut(task, task.actions)
+    expected = [LmCut(task, task.actions, compiled=compiled)(c) for c in conditions]
+    kept = LmCut(task, task.actions, compiled=compiled)
     assert [kept(c) for c in conditions] == expected
     monkeypatch.setattr(lmcut_module, "_TABLE_SLOTS", 0)
-    full = LmCut(task, task.actions)
+    full = LmCut(task, task.actions, compiled=compiled)
     assert [full(c) for c in conditions] == expected
     assert full.root.next == {}  # nothing was kept
+
+
+def kept_states(lmcut: LmCut) -> dict[tuple[int, ...], tuple[list[float], ...]]:
+    """Every state in an LmCut's table, by the atoms cut for to reach it, as plain lists."""
+    found = {}
+    stack: list[tuple[tuple[int, ...], lmcut_module._Step]] = [((), lmcut.root)]
+    while stack:
+        path, step = stack.pop()
+        state = step.state
+        found[path] = (list(state.hmax), list(state.value), list(state.choice), list(state.cost), [step.gained])
+        stack.extend(((*path, atom), following) for atom, following in (step.next or {}).items())
+    return found
+
+
+def assert_same_rounds(task: GroundTask, conditions: Sequence[frozenset[int]], where: object) -> int:
+    """The C and the Python rounds give every condition the same value and keep the same states;
+    returns how many states were compared."""
+    python, c = LmCut(task, task.actions, compiled=False), LmCut(task, task.actions, compiled=True)
+    for condition in conditions:
+        assert c(condition) == python(condition), (where, sorted(condition))
+    states = kept_states(python)
+    assert kept_states(c) == states, where
+    return len(states)
+
+
+@needs_c
+@pytest.mark.parametrize("seed", range(150))
+def test_the_c_rounds_equal_the_python_rounds_on_random_tasks(seed: int) -> None:
+    task = random_case(seed).task
+    rng = random.Random(seed)
+    atoms = range(len(task.atoms))
+    conditions = reached_conditions(task, rng, 12)
+    conditions += [frozenset(rng.sample(atoms, rng.randint(1, min(5, len(atoms))))) for _ in range(12)]
+    assert_same_rounds(task, conditions, seed)
+
+
+@needs_c
+@pytest.mark.parametrize("name", ["robothow", "virtualhome", "robowaiter"])
+def test_the_c_rounds_equal_the_python_rounds_on_the_scenarios(name: str) -> None:
+    """On the shipped scenarios (hundreds to thousands of actions), many cuts a condition."""
+    task = load_scenario(name).task
+    rng = random.Random(7)
+    conditions = []
+    for _ in range(15):
+        state = task.initial_state
+        for _ in range(rng.randint(2, 8)):
+            state = rng.choice([a for a in task.actions if a.applicable(state)]).progress(state)
+        changed = sorted(state - task.initial_state)
+        conditions.append(frozenset(rng.sample(changed, min(len(changed), 3))))
+    assert assert_same_rounds(task, conditions, name) >= 10  # rounds were made, not only looked up
+
+
+def test_lmcut_asked_for_c_rounds_without_the_extension_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(lmcut_module, "_compiled", None)
+    task = gripper(2)
+    with pytest.raises(PlanningError, match="C rounds are not built"):
+        LmCut(task, task.actions, compiled=True)
+    assert LmCut(task, task.actions, compiled=False)(task.resolve_goal(["At(b0,b)"]).disjuncts[0]) == 3.0
+
+
+@needs_c
+def test_the_c_round_refuses_arrays_that_do_not_fit() -> None:
+    task = gripper(2)
+    lmcut = LmCut(task, task.actions, compiled=True)
+    assert lmcut.rows is not None
+    state = lmcut.root.state.copy()
+    cut = lmcut_module._compiled.cut
+    with pytest.raises(ValueError, match="lengths do not match"):
+        cut(*lmcut.rows, state.hmax, state.value[:-1], state.choice, state.cost, 0)
+    with pytest.raises(TypeError, match="item size"):
+        cut(*lmcut.rows, state.hmax, state.value, state.cost, state.cost, 0)
+    with pytest.raises(IndexError, match="out of range"):
+        cut(*lmcut.rows, state.hmax, state.value, state.choice, state.cost, len(state.hmax))

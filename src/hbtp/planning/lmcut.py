@@ -22,19 +22,39 @@ is read off the goal zone's achievers: instead of a forward search from s0 aroun
 precondition choice below the zone's h_max is known to be reached outside it, and the others are
 decided by a short search backwards (:meth:`_Round._cut_actions`). An action without a precondition
 gets an artificial one that holds in s0.
+
+A round is made in C when the optional extension ``hbtp.planning._lmcut`` is built (it is whenever a C
+compiler is found at install): the same steps over flat arrays, with the same values to the last bit.
+Without it the rounds run here, in Python, several times slower (:data:`COMPILED` says which).
 """
 
 from __future__ import annotations
 
 import heapq
+import logging
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from array import array
+from collections.abc import Iterable, Mapping, MutableSequence, Sequence
+from types import ModuleType
 
 from hbtp.deadline import Deadline
+from hbtp.errors import PlanningError
 from hbtp.logic.task import GroundAction, GroundTask
 
 _INF = math.inf
 _SETUP = "setting up LM-cut"
+_compiled: ModuleType | None
+try:
+    from hbtp.planning import _lmcut as _compiled
+except ImportError:  # built without a C compiler: the rounds run in Python
+    _compiled = None
+
+#: Whether LM-cut's rounds run in C (the optional extension is built).
+COMPILED = _compiled is not None
+
+log = logging.getLogger(__name__)
+_warned = False
+
 #: How many list slots the table of states after cuts may hold (8 bytes each: 64 MB, plus the values).
 _TABLE_SLOTS = 8_000_000
 
@@ -48,7 +68,18 @@ class LmCut:
         actions: Sequence[GroundAction],
         costs: Mapping[int, float] | None = None,
         deadline: Deadline | None = None,
+        compiled: bool = COMPILED,
     ) -> None:
+        """``compiled``: make the rounds in C (only where the extension is built: :data:`COMPILED`)."""
+        if compiled and _compiled is None:
+            raise PlanningError("LM-cut's C rounds are not built here (hbtp.planning._lmcut is missing)")
+        global _warned
+        if not COMPILED and not _warned:
+            _warned = True
+            log.warning(
+                "LM-cut runs in Python, several times slower: its C extension was not built "
+                "(install a C compiler, then reinstall hbtp)"
+            )
         true = len(task.atoms)  # the artificial atom that holds in s0
         self.pre: list[tuple[int, ...]] = [tuple(sorted(a.pre)) or (true,) for a in actions]
         self.add: list[tuple[int, ...]] = [tuple(sorted(a.add)) for a in actions]
@@ -66,9 +97,15 @@ class LmCut:
         self.initial = (*sorted(task.initial_state), true)
         self.hmax, self.value = self._explore()
         self.choice = [self._choice(i, self.hmax, self.value[i]) for i in range(len(self.pre))]
+        self.rows = _rows(self.pre, self.add, self.users, self.achievers) if compiled else None
+        first = (
+            _Round(self, array("d", self.hmax), array("d", self.value), array("i", self.choice), array("d", self.cost))
+            if compiled
+            else _Round(self, self.hmax, self.value, self.choice, self.cost)
+        )
         # The states after each sequence of cuts met so far, by the atoms cut for: a condition
         # whose costliest atoms come in the same order as an earlier one's reuses its rounds.
-        self.root = _Step(_Round(self, self.hmax, self.value, self.choice, self.cost), 0.0, {})
+        self.root = _Step(first, 0.0, {})
         self.size = 2 * len(self.hmax) + 3 * len(self.pre)  # list slots per kept state
         self.room = _TABLE_SLOTS
 
@@ -140,6 +177,20 @@ class LmCut:
         return following
 
 
+def _rows(*tables: Sequence[Sequence[int]]) -> tuple[array[int], ...]:
+    """Each table (a list of tuples of ints) as compressed rows: the start of every row, then the
+    items, for the C rounds."""
+    flat: list[array[int]] = []
+    for table in tables:
+        start = array("i", [0])
+        items = array("i")
+        for row in table:
+            items.extend(row)
+            start.append(len(items))
+        flat += (start, items)
+    return tuple(flat)
+
+
 class _Step:
     """A state of an evaluation after some cuts, what the last cut added, and (when the state is
     kept in the table) the states after one more cut, by the atom cut for."""
@@ -157,7 +208,14 @@ class _Round:
 
     __slots__ = ("choice", "cost", "hmax", "lm", "value")
 
-    def __init__(self, lm: LmCut, hmax: list[float], value: list[float], choice: list[int], cost: list[float]) -> None:
+    def __init__(
+        self,
+        lm: LmCut,
+        hmax: MutableSequence[float],
+        value: MutableSequence[float],
+        choice: MutableSequence[int],
+        cost: MutableSequence[float],
+    ) -> None:
         self.lm = lm
         self.hmax = hmax
         self.value = value
@@ -165,11 +223,15 @@ class _Round:
         self.cost = cost
 
     def copy(self) -> _Round:
-        return _Round(self.lm, list(self.hmax), list(self.value), list(self.choice), list(self.cost))
+        return _Round(self.lm, self.hmax[:], self.value[:], self.choice[:], self.cost[:])
 
     def cut(self, top: int) -> float:
         """Find the cut for the goal's costliest atom ``top``, take its cost off its actions, update
         h_max, and return that cost."""
+        rows = self.lm.rows
+        if rows is not None:
+            assert _compiled is not None
+            return float(_compiled.cut(*rows, self.hmax, self.value, self.choice, self.cost, top))
         zone = self._goal_zone(top)
         cut = self._cut_actions(zone, self.hmax[top])
         cost = self.cost
