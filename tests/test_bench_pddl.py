@@ -11,6 +11,7 @@ import pytest
 
 from hbtp.bench.pddl_suite import discover, mismatch
 from hbtp.cli import EXIT_INPUT, EXIT_OK, main
+from hbtp.planning import lmcut
 
 INLINE = ["--executor", "inline", "--no-progress"]
 
@@ -104,7 +105,10 @@ def test_pddl_runs_verifies_flags_the_wrong_reference_and_resumes(
     assert summary["planners"]["obtea"]["by_domain"] == {"switch": 2, "move": 2}
     assert [(m["instance"], m["planner"]) for m in summary["mismatches"]] == [("m2", "obtea"), ("m2", "bte")]
     assert "MISMATCH move/m2 obtea" in printed
-    assert "2 MISMATCH(ES)" in (out / "report.md").read_text(encoding="utf-8")
+    report = (out / "report.md").read_text(encoding="utf-8")
+    assert "2 MISMATCH(ES)" in report
+    assert summary["config"]["lmcut_in_c"] is lmcut.COMPILED
+    assert ("LM-cut's rounds in C," if lmcut.COMPILED else "LM-cut's rounds in Python") in report
     before = (out / "results.jsonl").read_text(encoding="utf-8")
     assert main(argv) == EXIT_OK  # resumed: nothing runs again
     assert (out / "results.jsonl").read_text(encoding="utf-8") == before

@@ -37,7 +37,7 @@ from hbtp.deadline import Deadline, TimeLimitReached
 from hbtp.domains import load_pddl_scenario
 from hbtp.domains.scenarios import ScenarioOptions
 from hbtp.errors import BackendError, HbtpError, InputError
-from hbtp.planning import Limits, PlanResult, plan, release_search_memory
+from hbtp.planning import Limits, PlanResult, lmcut, plan, release_search_memory
 from hbtp.planning.heuristics import HeuristicName
 from hbtp.planning.planners import planner_config
 
@@ -352,6 +352,7 @@ def summarise(rows: Sequence[dict[str, Any]], config: PddlConfig, folder: Path) 
             "time_limit": config.time_limit,
             "validate": config.validate,
             "symmetry": config.symmetry,
+            "lmcut_in_c": lmcut.COMPILED,  # of the process that summarised: a resumed run may mix
         },
         "runs": len(rows),
         "domains": {d: len({r["instance"] for r in rows if r["domain"] == d}) for d in domains},
@@ -366,6 +367,13 @@ def summarise(rows: Sequence[dict[str, Any]], config: PddlConfig, folder: Path) 
             f"{r['domain']}/{r['instance']} {r['planner']}" for r in rows if r.get("solved") and not r.get("verified")
         ],
     }
+
+
+def _kernel(in_c: bool | None) -> str:
+    """Where LM-cut's rounds ran (unknown for a summary from before this was recorded)."""
+    if in_c is None:
+        return "LM-cut's rounds not recorded"
+    return "LM-cut's rounds in C" if in_c else "LM-cut's rounds in Python (its C extension not built)"
 
 
 def _s(value: float | None) -> str:
@@ -395,7 +403,8 @@ def pddl_section(summary: dict[str, Any], plotted: bool = True) -> str:
     parts = [
         "## Coverage, cost and time on a folder of PDDL benchmarks",
         f"`{config['folder']}`; heuristic `{config['heuristic']}`, symmetry pruning "
-        f"{'on' if config.get('symmetry') else 'off'}, {config['time_limit']:g} s per run (loading and "
+        f"{'on' if config.get('symmetry') else 'off'}, {_kernel(config.get('lmcut_in_c'))}, "
+        f"{config['time_limit']:g} s per run (loading and "
         "search each), every solved tree verified (static check from s0, then a run in the simulator). Coverage "
         "counts verified trees; times are medians over them (time = load + planning).",
         _table(header, rows),
