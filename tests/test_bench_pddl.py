@@ -9,9 +9,9 @@ from typing import Any
 
 import pytest
 
+from hbtp import compiled
 from hbtp.bench.pddl_suite import discover, mismatch
 from hbtp.cli import EXIT_INPUT, EXIT_OK, main
-from hbtp.planning import lmcut
 
 INLINE = ["--executor", "inline", "--no-progress"]
 
@@ -107,8 +107,11 @@ def test_pddl_runs_verifies_flags_the_wrong_reference_and_resumes(
     assert "MISMATCH move/m2 obtea" in printed
     report = (out / "report.md").read_text(encoding="utf-8")
     assert "2 MISMATCH(ES)" in report
-    assert summary["config"]["lmcut_in_c"] is lmcut.COMPILED
-    assert ("LM-cut's rounds in C," if lmcut.COMPILED else "LM-cut's rounds in Python") in report
+    built = compiled.built()
+    assert summary["config"]["c_extensions"] == built
+    assert (
+        "LM-cut's rounds and the subset index in C," if all(built.values()) else "(C extensions not built)"
+    ) in report
     before = (out / "results.jsonl").read_text(encoding="utf-8")
     assert main(argv) == EXIT_OK  # resumed: nothing runs again
     assert (out / "results.jsonl").read_text(encoding="utf-8") == before

@@ -426,7 +426,7 @@ def test_the_c_rounds_equal_the_python_rounds_on_the_scenarios(name: str) -> Non
 def test_lmcut_asked_for_c_rounds_without_the_extension_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(lmcut_module, "_compiled", None)
     task = gripper(2)
-    with pytest.raises(PlanningError, match="C rounds are not built"):
+    with pytest.raises(PlanningError, match=r"hbtp\.planning\._lmcut is not built"):
         LmCut(task, task.actions, compiled=True)
     assert LmCut(task, task.actions, compiled=False)(task.resolve_goal(["At(b0,b)"]).disjuncts[0]) == 3.0
 

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from hbtp import compiled
 from hbtp.bench.plots import PLANNER_LABELS, plot_pddl_coverage
 from hbtp.bench.report import _table, write_report
 from hbtp.bench.results import ResultsFile, median, read_json, write_json
@@ -37,7 +38,7 @@ from hbtp.deadline import Deadline, TimeLimitReached
 from hbtp.domains import load_pddl_scenario
 from hbtp.domains.scenarios import ScenarioOptions
 from hbtp.errors import BackendError, HbtpError, InputError
-from hbtp.planning import Limits, PlanResult, lmcut, plan, release_search_memory
+from hbtp.planning import Limits, PlanResult, plan, release_search_memory
 from hbtp.planning.heuristics import HeuristicName
 from hbtp.planning.planners import planner_config
 
@@ -352,7 +353,7 @@ def summarise(rows: Sequence[dict[str, Any]], config: PddlConfig, folder: Path) 
             "time_limit": config.time_limit,
             "validate": config.validate,
             "symmetry": config.symmetry,
-            "lmcut_in_c": lmcut.COMPILED,  # of the process that summarised: a resumed run may mix
+            "c_extensions": compiled.built(),  # of the process that summarised: a resumed run may mix
         },
         "runs": len(rows),
         "domains": {d: len({r["instance"] for r in rows if r["domain"] == d}) for d in domains},
@@ -369,11 +370,15 @@ def summarise(rows: Sequence[dict[str, Any]], config: PddlConfig, folder: Path) 
     }
 
 
-def _kernel(in_c: bool | None) -> str:
-    """Where LM-cut's rounds ran (unknown for a summary from before this was recorded)."""
-    if in_c is None:
-        return "LM-cut's rounds not recorded"
-    return "LM-cut's rounds in C" if in_c else "LM-cut's rounds in Python (its C extension not built)"
+def _kernel(config: dict[str, Any]) -> str:
+    """Whether LM-cut's rounds and the subset index ran in C (unknown for an older summary)."""
+    built = config.get("c_extensions")
+    if built is None:
+        return "C extensions not recorded"
+    missing = sorted(name for name, ok in built.items() if not ok)
+    if not missing:
+        return "LM-cut's rounds and the subset index in C"
+    return f"in Python: {', '.join(missing)} (C extensions not built)"
 
 
 def _s(value: float | None) -> str:
@@ -403,7 +408,7 @@ def pddl_section(summary: dict[str, Any], plotted: bool = True) -> str:
     parts = [
         "## Coverage, cost and time on a folder of PDDL benchmarks",
         f"`{config['folder']}`; heuristic `{config['heuristic']}`, symmetry pruning "
-        f"{'on' if config.get('symmetry') else 'off'}, {_kernel(config.get('lmcut_in_c'))}, "
+        f"{'on' if config.get('symmetry') else 'off'}, {_kernel(config)}, "
         f"{config['time_limit']:g} s per run (loading and "
         "search each), every solved tree verified (static check from s0, then a run in the simulator). Coverage "
         "counts verified trees; times are medians over them (time = load + planning).",

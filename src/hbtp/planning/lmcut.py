@@ -31,29 +31,21 @@ Without it the rounds run here, in Python, several times slower (:data:`COMPILED
 from __future__ import annotations
 
 import heapq
-import logging
 import math
 from array import array
 from collections.abc import Iterable, Mapping, MutableSequence, Sequence
-from types import ModuleType
 
+from hbtp import compiled as extensions
 from hbtp.deadline import Deadline
-from hbtp.errors import PlanningError
 from hbtp.logic.task import GroundAction, GroundTask
 
 _INF = math.inf
 _SETUP = "setting up LM-cut"
-_compiled: ModuleType | None
-try:
-    from hbtp.planning import _lmcut as _compiled
-except ImportError:  # built without a C compiler: the rounds run in Python
-    _compiled = None
+_EXTENSION = extensions.LMCUT
+_compiled = extensions.extension(_EXTENSION)
 
 #: Whether LM-cut's rounds run in C (the optional extension is built).
 COMPILED = _compiled is not None
-
-log = logging.getLogger(__name__)
-_warned = False
 
 #: How many list slots the table of states after cuts may hold (8 bytes each: 64 MB, plus the values).
 _TABLE_SLOTS = 8_000_000
@@ -71,15 +63,7 @@ class LmCut:
         compiled: bool = COMPILED,
     ) -> None:
         """``compiled``: make the rounds in C (only where the extension is built: :data:`COMPILED`)."""
-        if compiled and _compiled is None:
-            raise PlanningError("LM-cut's C rounds are not built here (hbtp.planning._lmcut is missing)")
-        global _warned
-        if not COMPILED and not _warned:
-            _warned = True
-            log.warning(
-                "LM-cut runs in Python, several times slower: its C extension was not built "
-                "(install a C compiler, then reinstall hbtp)"
-            )
+        self.kernel = extensions.kernel(_compiled, _EXTENSION, compiled=compiled, slower="LM-cut")
         true = len(task.atoms)  # the artificial atom that holds in s0
         self.pre: list[tuple[int, ...]] = [tuple(sorted(a.pre)) or (true,) for a in actions]
         self.add: list[tuple[int, ...]] = [tuple(sorted(a.add)) for a in actions]
@@ -97,10 +81,10 @@ class LmCut:
         self.initial = (*sorted(task.initial_state), true)
         self.hmax, self.value = self._explore()
         self.choice = [self._choice(i, self.hmax, self.value[i]) for i in range(len(self.pre))]
-        self.rows = _rows(self.pre, self.add, self.users, self.achievers) if compiled else None
+        self.rows = _rows(self.pre, self.add, self.users, self.achievers) if self.kernel is not None else ()
         first = (
             _Round(self, array("d", self.hmax), array("d", self.value), array("i", self.choice), array("d", self.cost))
-            if compiled
+            if self.kernel is not None
             else _Round(self, self.hmax, self.value, self.choice, self.cost)
         )
         # The states after each sequence of cuts met so far, by the atoms cut for: a condition
@@ -228,10 +212,9 @@ class _Round:
     def cut(self, top: int) -> float:
         """Find the cut for the goal's costliest atom ``top``, take its cost off its actions, update
         h_max, and return that cost."""
-        rows = self.lm.rows
-        if rows is not None:
-            assert _compiled is not None
-            return float(_compiled.cut(*rows, self.hmax, self.value, self.choice, self.cost, top))
+        rows, kernel = self.lm.rows, self.lm.kernel
+        if kernel is not None:
+            return float(kernel.cut(*rows, self.hmax, self.value, self.choice, self.cost, top))
         zone = self._goal_zone(top)
         cut = self._cut_actions(zone, self.hmax[top])
         cost = self.cost
