@@ -125,3 +125,26 @@ def test_asked_for_c_without_the_extension_says_so(monkeypatch: pytest.MonkeyPat
     index = SubsetIndex(compiled=False)
     index.add(frozenset({1}), 1)
     assert index.has_subset(frozenset({1, 2}))
+
+
+@needs_c
+def test_the_c_trie_refuses_a_second_call_while_one_is_under_way() -> None:
+    """A value compared by Python may run code that uses the same index (or let another thread in):
+    the C trie refuses that call rather than move the arrays the first call is reading."""
+    index = SubsetIndex(compiled=True)
+
+    class Meddling(int):  # compared by Python, not as a C integer
+        armed = True
+
+        def __lt__(self, other: object) -> bool:
+            if Meddling.armed:
+                Meddling.armed = False
+                index.add(frozenset({7}), 0)
+            return int(self) < other  # type: ignore[operator]
+
+    index.add(frozenset({1}), Meddling(5))
+    with pytest.raises(RuntimeError, match="used by two calls at once"):
+        index.add(frozenset({1}), Meddling(5))
+    index.add(frozenset({2}), 3)  # the refused call left the index usable
+    assert index.has_subset(frozenset({2, 5}), at_most=3)
+    assert not index.has_subset(frozenset({7}))

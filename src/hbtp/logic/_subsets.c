@@ -39,7 +39,18 @@ typedef struct {
     Py_ssize_t atoms_room;
     int32_t *position; /* position[atom]: the atom's index in a query's sorted atoms, or -1 */
     Py_ssize_t position_size;
+    int busy; /* inside add or has_subset: a comparison in Python may let another thread in */
 } Trie;
+
+/* Refuse a call while another is under way (it would move the arrays the first is reading). */
+static int enter(Trie *self) {
+    if (self->busy) {
+        PyErr_SetString(PyExc_RuntimeError, "a subset index is used by two calls at once");
+        return -1;
+    }
+    self->busy = 1;
+    return 0;
+}
 
 /* Python's a < b (op Py_LT) or a <= b (Py_LE): 1, 0, or -1 with an exception set. */
 static int compare(PyObject *a, PyObject *b, int op) {
@@ -164,17 +175,24 @@ static int keep_lower(PyObject **slot, PyObject *value) {
     return 0;
 }
 
+static int add(Trie *self, PyObject *items, PyObject *value) {
+    Py_ssize_t n = read_atoms(self, items), at = 0;
+    if (n < 0 || (self->count == 0 && new_node(self) < 0)) return -1;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        if (keep_lower(&self->nodes[at].lowest, value) < 0) return -1;
+        at = child_of(self, at, self->atoms[i]);
+        if (at < 0) return -1;
+    }
+    if (keep_lower(&self->nodes[at].lowest, value) < 0 || keep_lower(&self->nodes[at].here, value) < 0) return -1;
+    return 0;
+}
+
 static PyObject *trie_add(Trie *self, PyObject *args) {
     PyObject *items, *value;
-    if (!PyArg_ParseTuple(args, "OO:add", &items, &value)) return NULL;
-    Py_ssize_t n = read_atoms(self, items), at = 0;
-    if (n < 0 || (self->count == 0 && new_node(self) < 0)) return NULL;
-    for (Py_ssize_t i = 0; i < n; i++) {
-        if (keep_lower(&self->nodes[at].lowest, value) < 0) return NULL;
-        at = child_of(self, at, self->atoms[i]);
-        if (at < 0) return NULL;
-    }
-    if (keep_lower(&self->nodes[at].lowest, value) < 0 || keep_lower(&self->nodes[at].here, value) < 0) return NULL;
+    if (!PyArg_ParseTuple(args, "OO:add", &items, &value) || enter(self) < 0) return NULL;
+    int done = add(self, items, value);
+    self->busy = 0;
+    if (done < 0) return NULL;
     Py_RETURN_NONE;
 }
 
@@ -227,21 +245,27 @@ static int place_atoms(Trie *self, Py_ssize_t n) {
     return 0;
 }
 
+/* has_subset once the call is entered: 1, 0, or -1 on error. */
+static int has_subset(Trie *self, PyObject *items, PyObject *bound) {
+    if (self->count == 0 || self->nodes[0].lowest == NULL) return 0;
+    if (bound != NULL) {
+        int above = compare(bound, self->nodes[0].lowest, Py_LT);
+        if (above != 0) return above < 0 ? -1 : 0;
+    }
+    Py_ssize_t n = read_atoms(self, items);
+    if (n < 0 || place_atoms(self, n) < 0) return -1;
+    int found = search(self, 0, 0, n, bound);
+    for (Py_ssize_t i = 0; i < n; i++) self->position[self->atoms[i]] = -1;
+    return found;
+}
+
 static PyObject *trie_has_subset(Trie *self, PyObject *args, PyObject *kwargs) {
     static char *keywords[] = {"atoms", "at_most", NULL};
     PyObject *items, *bound = Py_None;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "O|O:has_subset", keywords, &items, &bound)) return NULL;
-    if (bound == Py_None) bound = NULL;
-    if (self->count == 0 || self->nodes[0].lowest == NULL) Py_RETURN_FALSE;
-    if (bound != NULL) {
-        int above = compare(bound, self->nodes[0].lowest, Py_LT);
-        if (above < 0) return NULL;
-        if (above) Py_RETURN_FALSE;
-    }
-    Py_ssize_t n = read_atoms(self, items);
-    if (n < 0 || place_atoms(self, n) < 0) return NULL;
-    int found = search(self, 0, 0, n, bound);
-    for (Py_ssize_t i = 0; i < n; i++) self->position[self->atoms[i]] = -1;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "O|O:has_subset", keywords, &items, &bound) || enter(self) < 0)
+        return NULL;
+    int found = has_subset(self, items, bound == Py_None ? NULL : bound);
+    self->busy = 0;
     if (found < 0) return NULL;
     return PyBool_FromLong(found);
 }
