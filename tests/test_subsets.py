@@ -116,6 +116,8 @@ def test_the_c_trie_refuses_atoms_it_cannot_hold() -> None:
     with pytest.raises(ValueError, match=r"atom ids in \[0, 2\*\*31\)"):
         index.has_subset(frozenset({2**31}))
     assert index.has_subset(frozenset({1}), at_most=2)  # a refused call leaves the trie as it was
+    index.add(frozenset({2**31 - 1}), 1)  # the largest id it holds (no table the size of the ids)
+    assert index.has_subset(frozenset({5, 2**31 - 1}), at_most=1)
 
 
 def test_asked_for_c_without_the_extension_says_so(monkeypatch: pytest.MonkeyPatch) -> None:

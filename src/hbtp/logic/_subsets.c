@@ -1,15 +1,16 @@
 /* The set-trie of hbtp.logic.subsets in C: the compiled form of SubsetIndex's Python nodes.
  *
  * The Python module documents the structure and holds the reference implementation; this file keeps
- * the same trie in flat arrays and answers the same queries in the same order (tests/test_subsets.py
- * compares both with a linear scan). It is built when a C compiler is present (an optional
+ * the same trie in flat arrays and gives the same answers (tests/test_subsets.py compares both, and
+ * both with a linear scan). It is built when a C compiler is present (an optional
  * extension: without one, SubsetIndex runs in Python).
  *
  * Trie().add(atoms, value)               -- atoms: an iterable of ints in [0, 2**31); value: any
  *                                           number (kept as the Python object, compared with < and <=)
  * Trie().has_subset(atoms, at_most=None) -> bool
  *
- * A node's children are edges sorted by atom (found by binary search); values are compared as
+ * A node's children are edges sorted by atom, and a query's atoms are sorted too, so a query walks
+ * the fewer of the two and finds each in the other by binary search. Values are compared as
  * doubles when both are floats, as C integers when both are ints that fit, and by Python otherwise,
  * so int, float and Fraction values behave exactly as in Python.
  */
@@ -37,8 +38,6 @@ typedef struct {
     Py_ssize_t count, room;
     int32_t *atoms; /* the sorted atoms of the set being added or queried */
     Py_ssize_t atoms_room;
-    int32_t *position; /* position[atom]: the atom's index in a query's sorted atoms, or -1 */
-    Py_ssize_t position_size;
     int busy; /* inside add or has_subset: a comparison in Python may let another thread in */
 } Trie;
 
@@ -196,6 +195,19 @@ static PyObject *trie_add(Trie *self, PyObject *args) {
     Py_RETURN_NONE;
 }
 
+/* The first index of the sorted atoms[low:n] whose atom is at least ``atom`` (n if none). */
+static Py_ssize_t first_atom(const int32_t *atoms, Py_ssize_t low, Py_ssize_t n, int32_t atom) {
+    Py_ssize_t high = n;
+    while (low < high) {
+        Py_ssize_t middle = low + (high - low) / 2;
+        if (atoms[middle] < atom)
+            low = middle + 1;
+        else
+            high = middle;
+    }
+    return low;
+}
+
 /* Whether the subtree of node ``at`` holds a set made of atoms[start:n] (valued at most ``bound``,
  * unless it is NULL): 1, 0, or -1 on error. */
 static int search(const Trie *self, Py_ssize_t at, Py_ssize_t start, Py_ssize_t n, PyObject *bound) {
@@ -205,10 +217,12 @@ static int search(const Trie *self, Py_ssize_t at, Py_ssize_t start, Py_ssize_t 
         if (ok != 0) return ok;
     }
     if (node->count < n - start) { /* walk the fewer of the children and the atoms left */
+        Py_ssize_t index = start;
         for (int32_t e = 0; e < node->count; e++) {
             int32_t atom = node->edges[e].atom;
-            int32_t index = atom < self->position_size ? self->position[atom] : -1;
-            if (index < start) continue;
+            index = first_atom(self->atoms, index, n, atom); /* both are sorted */
+            if (index == n) break;
+            if (self->atoms[index] != atom) continue;
             const Node *child = &self->nodes[node->edges[e].node];
             int ok = bound == NULL ? 1 : compare(child->lowest, bound, Py_LE);
             if (ok > 0) ok = search(self, node->edges[e].node, index + 1, n, bound);
@@ -229,22 +243,6 @@ static int search(const Trie *self, Py_ssize_t at, Py_ssize_t start, Py_ssize_t 
     return 0;
 }
 
-/* Make position[] cover every atom of the query and point each at its index. */
-static int place_atoms(Trie *self, Py_ssize_t n) {
-    int32_t largest = n ? self->atoms[n - 1] : -1;
-    if (largest >= self->position_size) {
-        Py_ssize_t size = self->position_size ? self->position_size : 256;
-        while (size <= largest) size *= 2;
-        int32_t *position = grown(self->position, size, sizeof(int32_t));
-        if (position == NULL) return -1;
-        for (Py_ssize_t i = self->position_size; i < size; i++) position[i] = -1;
-        self->position = position;
-        self->position_size = size;
-    }
-    for (Py_ssize_t i = 0; i < n; i++) self->position[self->atoms[i]] = (int32_t)i;
-    return 0;
-}
-
 /* has_subset once the call is entered: 1, 0, or -1 on error. */
 static int has_subset(Trie *self, PyObject *items, PyObject *bound) {
     if (self->count == 0 || self->nodes[0].lowest == NULL) return 0;
@@ -253,10 +251,8 @@ static int has_subset(Trie *self, PyObject *items, PyObject *bound) {
         if (above != 0) return above < 0 ? -1 : 0;
     }
     Py_ssize_t n = read_atoms(self, items);
-    if (n < 0 || place_atoms(self, n) < 0) return -1;
-    int found = search(self, 0, 0, n, bound);
-    for (Py_ssize_t i = 0; i < n; i++) self->position[self->atoms[i]] = -1;
-    return found;
+    if (n < 0) return -1;
+    return search(self, 0, 0, n, bound);
 }
 
 static PyObject *trie_has_subset(Trie *self, PyObject *args, PyObject *kwargs) {
@@ -287,7 +283,6 @@ static void trie_dealloc(Trie *self) {
     }
     PyMem_Free(self->nodes);
     PyMem_Free(self->atoms);
-    PyMem_Free(self->position);
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
