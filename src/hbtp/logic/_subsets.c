@@ -271,8 +271,7 @@ static int trie_init(Trie *self, PyObject *args, PyObject *kwargs) {
         if (!PyErr_Occurred()) PyErr_SetString(PyExc_TypeError, "Trie() takes no arguments");
         return -1;
     }
-    if (self->count == 0 && new_node(self) < 0) return -1;
-    return 0;
+    return 0; /* the root is made by the first add */
 }
 
 static void trie_dealloc(Trie *self) {
