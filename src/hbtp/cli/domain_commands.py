@@ -8,8 +8,9 @@ from pathlib import Path
 import click
 
 from hbtp.cli.options import ScenarioSource, echo_json, scenario_options, write_files_atomically
-from hbtp.domains import load_scenario, scenario_names, write_domain, write_grounded, write_problem
+from hbtp.domains import Scenario, load_scenario, scenario_names, write_domain, write_grounded, write_problem
 from hbtp.domains.lifted import And, AtomFormula
+from hbtp.errors import InputError
 
 
 @click.command()
@@ -38,7 +39,8 @@ def ground(
     names: bool,
     as_json: bool,
 ) -> int:
-    """Ground a scenario or your PDDL files and show the result."""
+    """Ground a scenario or your PDDL files and show the result (with the actions relevant to the
+    problem's :goal when it has one: those a search of it uses)."""
     loaded = source.load()
     task = loaded.task
     if names:
@@ -48,6 +50,7 @@ def ground(
         echo_json(
             {
                 **loaded.summary(),
+                "goal_actions": _goal_actions(loaded),
                 "actions_detail": [
                     {
                         "name": a.name,
@@ -66,7 +69,20 @@ def ground(
     for key in ("name", "actions", "action_predicates", "objects", "s0", "atoms", "mutex_groups"):
         click.echo(f"{key:18} {summary[key]}")
     click.echo(f"{'grounding_s':18} {loaded.load_seconds:.3f}")
+    goal_actions = _goal_actions(loaded)
+    if goal_actions is not None:
+        click.echo(f"{'goal_actions':18} {goal_actions} (relevant to the problem's :goal)")
     return 0
+
+
+def _goal_actions(loaded: Scenario) -> int | None:
+    """How many ground actions are relevant to the problem's :goal (``None`` without one)."""
+    try:
+        text = loaded.problem_goal()
+    except InputError:  # the shipped scenarios' problems hold no goal
+        return None
+    scenario, goal = loaded.resolve_goal(text)
+    return len(scenario.task.relevant_actions(goal))  # the actions Scenario.for_goal keeps
 
 
 @click.command("export-pddl")

@@ -304,6 +304,9 @@ def run_plan(request: PlanRequest) -> int:
         loop = _run_llm(spec, request, loaded, goal)
         return report.finish(loop.result, "llm", loop)
     hints = load_hints(search.hints_source, loaded, goal, limits)
+    if hints is None:  # hints name actions of the whole grounding; a search without them needs fewer
+        loaded = loaded.for_goal(goal)
+        report = _Report(loaded, goal, request)
     space = search.space or ("pruned" if hints is not None else "full")
     config = planner_config(
         search.planner, heuristic=cast(HeuristicName, search.heuristic), alpha=search.alpha, symmetry=search.symmetry

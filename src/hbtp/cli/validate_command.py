@@ -181,14 +181,14 @@ def validate_optimal(
 def _file_line(row: dict[str, Any]) -> str:
     """``p01.pddl  OBTEA 11 (0.02 s)  FD 11 (0.31 s)  match  ground 34 / FD 34 (1.00x)``."""
     verdict = _verdict(row["match"], row["decided"])
-    ratio = (
-        f"{row['ground_ratio']:.2f}x, relevant {row['relevant_ratio']:.2f}x" if row["ground_ratio"] is not None else "-"
-    )
+    ratio = "-"
+    if row["ground_ratio"] is not None:
+        ratio = f"{row['ground_ratio']:.2f}x, reachable {row['reachable_ratio']:.2f}x"
     return (
         f"{row['instance']}  OBTEA {_cost(row['obtea_cost'], row['obtea_status'])} ({row['obtea_time_s']:.2f} s"
         f"{', tree verified' if row['tree_verified'] else ''})  FD {_cost(row['fd_cost'], row['fd_status'])} "
         f"({row['fd_time_s']:.2f} s)  {verdict}  ground actions {row['grounded_actions']} "
-        f"({row['relevant_actions']} relevant to the goal) / "
+        f"(of {row['reachable_actions']} reachable) / "
         f"FD operators {row['fd_operators'] if row['fd_operators'] is not None else '-'} ({ratio})"
         + (f"\n    {row['fd_message']}" if "fd_message" in row and not row["match"] else "")
     )

@@ -166,6 +166,17 @@ class Scenario:
             lambda: dataclasses.replace(self, task=task, mutexes=with_negation_groups(self.mutexes, task)),
         )
 
+    def for_goal(self, goal: Goal) -> Scenario:
+        """The scenario a search of ``goal`` needs: only the ground actions relevant to it (the
+        achievers of its literals, then of their preconditions', and so on: the operators Fast
+        Downward's translator keeps for a problem's goal), the same atoms, s0 and mutexes (proved for
+        the states every action reaches, so they hold where fewer act). A backward search of ``goal``
+        only ever regresses through these actions: its tree and cost are the same in both."""
+        task = self.task.keeping(self.task.relevant_actions(goal))
+        if task is self.task:
+            return self
+        return dataclasses.replace(self, task=task)
+
     def summary(self) -> dict[str, Any]:
         """The figures ``hbtp scenarios`` prints."""
         return {

@@ -253,6 +253,23 @@ class GroundTask:
                 task.__dict__[name] = self.__dict__[name]
         return task
 
+    #: The lookups above that depend on the atoms alone (kept by :meth:`keeping`).
+    _ATOMS_ONLY = ("atom_ids", "symbols", "static_arities", "categories", "negation_ids")
+
+    def keeping(self, action_ids: Iterable[int]) -> GroundTask:
+        """The same task with only the actions ``action_ids``, renumbered in task order (their names,
+        conditions, effects and costs unchanged), the same atoms and s0: this task itself when every
+        action is kept. It shares the lookups that depend on the atoms alone."""
+        kept = self.restricted(action_ids)
+        if len(kept) == len(self.actions):
+            return self
+        actions = tuple(dataclasses.replace(action, index=i) for i, action in enumerate(kept))
+        task = dataclasses.replace(self, actions=actions)
+        for name in self._ATOMS_ONLY:
+            if name in self.__dict__:
+                task.__dict__[name] = self.__dict__[name]
+        return task
+
     # ------------------------------------------------------ the per-task index
     @cached_property
     def _derived(self) -> dict[Hashable, Any]:
