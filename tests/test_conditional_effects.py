@@ -33,12 +33,14 @@ When = tuple[Formula, list[Literal], int]
 
 class RandomConditional:
     """A small random domain whose actions have conditional effects over fluents, some under a
-    ``forall``, some nested, some adding to the cost."""
+    ``forall``, some nested, some adding to the cost, some with a static conjunct (``(marked ?q)``,
+    which no action changes) beside the fluent ones."""
 
     def __init__(self, seed: int, conditional_costs: bool = True) -> None:
         self.rng = rng = random.Random(seed)
         self.conditional_costs = conditional_costs
         self.objects = [f"o{i}" for i in range(rng.randint(2, 3))]
+        self.marked = sorted(rng.sample(self.objects, rng.randint(0, len(self.objects))))
         widest = 4 - len(self.objects)  # binary predicates over two objects only: the brute force stays small
         self.predicates = {f"p{i}": rng.randint(0, widest) if i else 0 for i in range(rng.randint(2, 4))}
         self.actions: list[dict[str, Any]] = []
@@ -58,8 +60,9 @@ class RandomConditional:
                 }
             )
         atoms = [(p, *a) for p, n in sorted(self.predicates.items()) for a in itertools.product(self.objects, repeat=n)]
-        self.initial = frozenset(rng.sample(atoms, rng.randint(0, min(3, len(atoms)))))
-        missing = [a for a in atoms if a not in self.initial]
+        fluents = frozenset(rng.sample(atoms, rng.randint(0, min(3, len(atoms)))))
+        self.initial = fluents | {("marked", o) for o in self.marked}
+        missing = [a for a in atoms if a not in fluents]
         self.goal = (
             "and",
             [
@@ -89,13 +92,17 @@ class RandomConditional:
             condition = ("and", [atom if holds else ("not", atom)])
             return condition, [(holds, atom[1], atom[2])], rng.choice([0, 0, 2]) if self.conditional_costs else 0
         parts = [self._literal(variables) for _ in range(rng.randint(1, 2))]
-        condition = (rng.choice(["and", "or"]), parts)
+        if variables and rng.random() < 0.4:
+            mark: Formula = ("atom", "marked", (rng.choice(variables),))
+            parts.insert(rng.randint(0, len(parts)), mark if rng.random() < 0.7 else ("not", mark))
+        condition = (rng.choice(["and", "and", "or"]), parts)
         body = [self._effect_literal(variables) for _ in range(rng.randint(1, 2))]
         return condition, body, rng.choice([0, 0, 1, 3]) if self.conditional_costs else 0
 
     # ------------------------------------------------------------------------------ the files
     def domain_text(self) -> str:
         predicates = " ".join(f"({' '.join((p, *(f'?y{i}' for i in range(n))))})" for p, n in self.predicates.items())
+        predicates += " (marked ?y0)"
         actions = "".join(self._action_text(action) for action in self.actions)
         return (
             "(define (domain rc) (:requirements :adl :action-costs)\n"

@@ -74,11 +74,13 @@ def alternatives(value: list[Key] | Choice) -> tuple[tuple[Key, ...], ...]:
 def choice(options: Iterable[tuple[Key, ...]], action: str) -> Value:
     """The ``options`` that can hold (no ``p`` with ``~p``), each once, without those that ask for
     more than another one does (their actions would be redundant)."""
+    return _minimal([literals for literals in map(frozenset, options) if not _contradictory(literals)], action)
+
+
+def _minimal(options: Sequence[frozenset[Key]], action: str) -> Value:
+    """``options`` (each consistent) each once, without those that ask for more than another one does."""
     kept: list[frozenset[Key]] = []
-    for option in options:
-        literals = frozenset(option)
-        if any(_opposite(key) in literals for key in literals):
-            continue
+    for literals in options:
         if literals not in kept:
             kept.append(literals)
     if not kept:
@@ -193,14 +195,28 @@ def _merged(effects: Effects, bodies: tuple[Effects, ...]) -> Effects:
 
 
 def _conjoined_consistent(value: list[Key] | Choice, condition: list[Key] | Choice, action: str) -> Value:
-    """``value`` and ``condition`` (each consistent) conjoined, ``False`` when they contradict; two
-    conjunctions, the usual case, are checked literal by literal."""
-    if isinstance(value, list) and isinstance(condition, list):
-        present = set(value)
+    """``value`` and ``condition`` (each consistent) conjoined, ``False`` when they contradict. When
+    ``value`` is a conjunction (the usual case), only ``condition``'s literals can contradict it, so
+    only they are looked up in it."""
+    if not isinstance(value, list):
+        return _consistent(conjoined([value, condition], action), action)
+    present = set(value)
+    if isinstance(condition, list):
         if any(_opposite(key) in present for key in condition):
             return False
         return value + [key for key in condition if key not in present]
-    return _consistent(conjoined([value, condition], action), action)
+    options = [
+        frozenset((*value, *option)) for option in condition if not any(_opposite(key) in present for key in option)
+    ]
+    return _minimal(options, action)
+
+
+def _contradictory(literals: frozenset[Key] | set[Key]) -> bool:
+    """Whether ``literals`` ask for an atom and its negation (only a negative literal is looked up)."""
+    for predicate, args in literals:
+        if predicate.startswith(NEGATION) and (predicate[len(NEGATION) :], args) in literals:
+            return True
+    return False
 
 
 def _opposite(key: Key) -> Key:

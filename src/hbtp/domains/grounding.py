@@ -805,9 +805,16 @@ class _Grounder:
         condition = effect.condition
         if not self._is_static(condition):
             # A condition over fluents: a case of the binding's effects (see hbtp.domains.alternatives).
+            # Its static conjuncts (``(CONNECTED ?to ?c)`` under a forall) are tested first, quickly.
             simplify, name = self._simplify, schema.name
+            static: Callable[[Binding], bool] | None = None
+            if isinstance(condition, And) and any(self._is_static(part) for part in condition.parts):
+                static = self._static_test(And(tuple(p for p in condition.parts if self._is_static(p))))
+                condition = And(tuple(p for p in condition.parts if not self._is_static(p)), condition.line)
 
             def case(binding: Binding, effects: Effects) -> None:
+                if static is not None and not static(binding):
+                    return  # it never fires
                 inner = Effects()
                 for op in body:
                     op(binding, inner)
