@@ -808,9 +808,14 @@ class _Grounder:
             # Its static conjuncts (``(CONNECTED ?to ?c)`` under a forall) are tested first, quickly.
             simplify, name = self._simplify, schema.name
             static: Callable[[Binding], bool] | None = None
-            if isinstance(condition, And) and any(self._is_static(part) for part in condition.parts):
-                static = self._static_test(And(tuple(p for p in condition.parts if self._is_static(p))))
-                condition = And(tuple(p for p in condition.parts if not self._is_static(p)), condition.line)
+            if isinstance(condition, And):
+                fluent: list[Formula] = []
+                known: list[Formula] = []
+                for part in condition.parts:
+                    (known if self._is_static(part) else fluent).append(part)
+                if known:
+                    static = self._static_test(And(tuple(known)))
+                    condition = And(tuple(fluent), condition.line)
 
             def case(binding: Binding, effects: Effects) -> None:
                 if static is not None and not static(binding):
