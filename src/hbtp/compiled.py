@@ -1,4 +1,5 @@
-"""hbtp's optional C extensions: LM-cut's rounds and the subset index's set-trie.
+"""hbtp's optional C extensions: LM-cut's rounds, the subset index's set-trie, and the cheap estimates
+(h² and the landmark sum) of the conditions a search generates.
 
 Each is built when a C compiler and Python's headers are found at install (setuptools' optional
 extensions, see pyproject.toml); without them hbtp runs the same algorithms in Python, with the same
@@ -21,6 +22,11 @@ _warned: set[str] = set()
 #: The optional extensions (module names under ``hbtp``).
 LMCUT = "planning._lmcut"
 SUBSETS = "logic._subsets"
+CHEAP = "planning._cheap"
+
+#: How many conditions an estimate with C tables answers in Python before it makes them (a short
+#: search never pays for them).
+WARM_UP = 64
 
 
 def extension(name: str) -> ModuleType | None:
@@ -53,4 +59,4 @@ def kernel(module: ModuleType | None, name: str, *, compiled: bool, slower: str)
 
 def built() -> dict[str, bool]:
     """Whether each optional extension is built here, by name."""
-    return {name: extension(name) is not None for name in (LMCUT, SUBSETS)}
+    return {name: extension(name) is not None for name in (LMCUT, SUBSETS, CHEAP)}

@@ -36,14 +36,17 @@ from __future__ import annotations
 
 import heapq
 import math
+from array import array
 from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
+from types import ModuleType
 from typing import Literal, Protocol, overload
 
+from hbtp import compiled as extensions
 from hbtp.deadline import Deadline
 from hbtp.logic.task import GroundAction, GroundTask
 from hbtp.planning.flow import StateEquation
 from hbtp.planning.lmcut import LmCut
-from hbtp.planning.pairs import PairCosts, pair_costs
+from hbtp.planning.pairs import COMPILED, PairCosts, cheap_kernel, pair_costs
 
 HeuristicName = Literal["none", "hmax", "lm", "lmcut", "seq"]
 HEURISTICS: tuple[str, ...] = ("none", "hmax", "lm", "lmcut", "seq")
@@ -199,6 +202,7 @@ class Landmarks(Sequence["frozenset[int] | None"]):
     def __init__(self, masks: list[int | None]) -> None:
         self.masks = masks
         self.known: dict[int, frozenset[int] | None] = {}
+        self.lists: tuple[bytes, bytes] | None = None
 
     @overload
     def __getitem__(self, index: int) -> frozenset[int] | None: ...
@@ -219,6 +223,21 @@ class Landmarks(Sequence["frozenset[int] | None"]):
 
     def __len__(self) -> int:
         return len(self.masks)
+
+    def bit_lists(self, kernel: ModuleType) -> tuple[bytes, bytes]:
+        """Every atom's landmarks as the C kernel reads them (made once)."""
+        if self.lists is None:
+            self.lists = _bit_lists(kernel, self.masks)
+        return self.lists
+
+
+def _bit_lists(kernel: ModuleType, masks: Sequence[int | None]) -> tuple[bytes, bytes]:
+    """The C kernel's form of per-atom bit masks (``None``: no set): spans into one list of atoms."""
+    size = (len(masks) + 7) // 8
+    lists: tuple[bytes, bytes] = kernel.bit_lists(
+        len(masks), (None if mask is None else mask.to_bytes(size, "little") for mask in masks)
+    )
+    return lists
 
 
 def _bits(mask: int) -> Iterator[int]:
@@ -343,7 +362,8 @@ class LandmarkSum:
     """``max(hmax, ceil(Σ cost(f) for f in L(c)))`` (see the module docstring); ``hmax`` may be omitted.
 
     ``pre_landmarks`` holds, by action index, the landmarks of each action's precondition that s0
-    lacks (``None``: a dead end), as :class:`SpaceAnalysis` computes them.
+    lacks (``None``: a dead end), as :class:`SpaceAnalysis` computes them. ``compiled``: after
+    :data:`~hbtp.compiled.WARM_UP` conditions, answer in C (where the extension is built).
     """
 
     def __init__(
@@ -353,14 +373,23 @@ class LandmarkSum:
         initial_state: frozenset[int],
         pre_landmarks: Mapping[int, frozenset[int] | None],
         hmax: Sequence[float] | None = None,
+        compiled: bool = COMPILED,
     ) -> None:
         self.landmarks = landmarks
         self.share = share
         self.initial_state = initial_state
         self.pre_landmarks = pre_landmarks
         self.hmax = hmax
+        self.kernel = cheap_kernel(compiled)
+        self.tables: tuple[bytes, bytes, bytes, bytearray, bytes | None] | None = None  # the C kernel's
+        self.calls = 0
 
     def __call__(self, condition: Iterable[int]) -> float:
+        if self.tables is not None:
+            return float(self.kernel.landmark_sum(self.tables, condition))  # type: ignore[union-attr]
+        self.calls += 1
+        if self.calls > extensions.WARM_UP and self.kernel is not None:
+            self.tables = self.compiled_tables(self.kernel)
         landmarks = self.landmarks
         parts = []
         for atom in condition:
@@ -376,6 +405,20 @@ class LandmarkSum:
             hmax = self.hmax
             return max(float(total), max(hmax[a] for a in condition))
         return float(total)
+
+    def compiled_tables(self, kernel: ModuleType) -> tuple[bytes, bytes, bytes, bytearray, bytes | None]:
+        """What the C kernel reads: the landmarks' spans and atoms, the shares (0 in s0), its scratch
+        marks and the h_max table."""
+        landmarks = self.landmarks
+        if isinstance(landmarks, Landmarks):
+            spans, atoms = landmarks.bit_lists(kernel)
+        else:
+            masks = [None if part is None else sum(1 << f for f in part) for part in landmarks]
+            spans, atoms = _bit_lists(kernel, masks)
+        s0 = self.initial_state
+        share = array("d", (0.0 if f in s0 else float(value) for f, value in enumerate(self.share))).tobytes()
+        hmax = None if self.hmax is None else array("d", self.hmax).tobytes()
+        return spans, atoms, share, bytearray(4 * (len(landmarks) + 1)), hmax
 
     def precondition_bound(self, action: GroundAction) -> float:
         """The landmark part of the estimate for ``action``'s precondition (an action of the space)."""

@@ -26,9 +26,26 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Iterable, Mapping, Sequence
+from types import ModuleType
 
+from hbtp import compiled as extensions
 from hbtp.deadline import Deadline
 from hbtp.logic.task import GroundAction, GroundTask
+
+_EXTENSION = extensions.CHEAP
+_compiled = extensions.extension(_EXTENSION)
+
+#: Whether h² and the landmark sum of a condition are computed in C (the optional extension is built).
+COMPILED = _compiled is not None
+
+
+def cheap_kernel(compiled: bool) -> ModuleType | None:
+    """The C kernel of h² and the landmark sum if ``compiled`` is asked for (see
+    :func:`hbtp.compiled.kernel`)."""
+    return extensions.kernel(
+        _compiled, _EXTENSION, compiled=compiled, slower="the cheap estimate of a condition (h² and the landmark sum)"
+    )
+
 
 #: The largest task (in atoms) whose pair costs are computed: the table grows with the square of the
 #: atoms (RobotHow, 4,914 atoms, would take seconds; IPC instances have hundreds).
@@ -42,14 +59,25 @@ class PairCosts:
 
     ``history[p]`` lists ``(level, mask)``: the atoms ``q`` with ``h²({p, q}) <= level`` (``p``
     itself when ``h²(p) <= level``), at each level where that set grew.
+
+    ``compiled``: after :data:`~hbtp.compiled.WARM_UP` conditions, answer in C from a table of every
+    pair's h² (where the extension is built: :data:`COMPILED`).
     """
 
-    def __init__(self, history: Sequence[Sequence[tuple[float, int]]]) -> None:
+    def __init__(self, history: Sequence[Sequence[tuple[float, int]]], compiled: bool = COMPILED) -> None:
         self.history = history
         self.bits = [1 << atom for atom in range(len(history))]
         self.known: dict[int, float] = {}
+        self.kernel = cheap_kernel(compiled)
+        self.table: bytes | None = None  # h² of each pair, n * n doubles (made in C after the warm-up)
+        self.calls = 0
 
     def __call__(self, condition: Iterable[int]) -> float:
+        if self.table is not None:
+            return float(self.kernel.pair_cost(self.table, len(self.history), condition))  # type: ignore[union-attr]
+        self.calls += 1
+        if self.calls > extensions.WARM_UP and self.kernel is not None:
+            self.table = self.pair_table()
         atoms = condition if isinstance(condition, (frozenset, set, list, tuple)) else list(condition)
         mask = sum(map(self.bits.__getitem__, atoms))  # the atoms are distinct: the sum is their union
         history = self.history
@@ -69,6 +97,17 @@ class PairCosts:
         if value is None:
             value = self.known[action.index] = self(action.pre)
         return value
+
+    def pair_table(self) -> bytes:
+        """h² of every pair of atoms, as the C kernel reads it (its table, made there)."""
+        assert self.kernel is not None
+        size = (len(self.history) + 7) // 8
+        rows = (
+            ([level for level, _ in entries], b"".join(mask.to_bytes(size, "little") for _, mask in entries))
+            for entries in self.history
+        )
+        table: bytes = self.kernel.pair_table(len(self.history), rows)
+        return table
 
 
 def pair_costs(
