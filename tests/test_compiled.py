@@ -10,7 +10,8 @@ from hbtp import compiled
 from hbtp.errors import PlanningError
 from hbtp.logic import subsets
 from hbtp.logic.subsets import SubsetIndex
-from hbtp.planning import lmcut, pairs
+from hbtp.planning import flow, lmcut, pairs
+from hbtp.planning.flow import StateEquation
 from hbtp.planning.heuristics import LandmarkSum, analyse_space
 from hbtp.planning.lmcut import LmCut
 from hbtp.planning.pairs import PairCosts
@@ -22,6 +23,7 @@ def test_built_names_each_extension_as_its_module_says() -> None:
         compiled.LMCUT: lmcut.COMPILED,
         compiled.SUBSETS: subsets.COMPILED,
         compiled.CHEAP: pairs.COMPILED,
+        compiled.SIMPLEX: flow.COMPILED,
     }
 
 
@@ -48,6 +50,22 @@ def test_a_missing_extension_is_said_once_per_process_and_only_at_first_use(
     assert "LM-cut runs in Python" in said[1]
     assert "install a C compiler" in said[1]
     assert "(h² and the landmark sum) runs in Python" in said[2]
+
+
+def test_without_the_simplex_in_c_highs_solves_and_that_is_said_once(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    monkeypatch.setattr(compiled, "_warned", set())
+    monkeypatch.setattr(flow, "_compiled", None)
+    task = random_case(0).task
+    with caplog.at_level(logging.WARNING, logger="hbtp.compiled"):
+        made = [StateEquation(task, task.actions, None, compiled=False) for _ in range(3)]
+    said = [r.getMessage() for r in caplog.records]
+    assert len(said) == 1, said
+    assert "the state equation is solved by HiGHS, several times slower" in said[0]
+    assert all(equation.program is None for equation in made)
+    with pytest.raises(PlanningError, match=r"_simplex is not built here \(the state equation is solved by HiGHS\)"):
+        StateEquation(task, task.actions, None, compiled=True)
 
 
 def test_c_asked_for_where_it_is_not_built_is_refused_with_what_runs_instead() -> None:

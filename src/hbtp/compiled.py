@@ -1,5 +1,5 @@
-"""hbtp's optional C extensions: LM-cut's rounds, the subset index's set-trie, and the cheap estimates
-(h² and the landmark sum) of the conditions a search generates.
+"""hbtp's optional C extensions: LM-cut's rounds, the subset index's set-trie, the cheap estimates
+(h² and the landmark sum) of the conditions a search generates, and the state equation's simplex.
 
 Each is built when a C compiler and Python's headers are found at install (setuptools' optional
 extensions, see pyproject.toml); without them hbtp runs the same algorithms in Python, with the same
@@ -23,6 +23,7 @@ _warned: set[str] = set()
 LMCUT = "planning._lmcut"
 SUBSETS = "logic._subsets"
 CHEAP = "planning._cheap"
+SIMPLEX = "planning._simplex"
 
 #: How many conditions an estimate with C tables answers in Python before it makes them (a short
 #: search never pays for them).
@@ -37,21 +38,24 @@ def extension(name: str) -> ModuleType | None:
         return None
 
 
-def kernel(module: ModuleType | None, name: str, *, compiled: bool, slower: str) -> ModuleType | None:
+def kernel(
+    module: ModuleType | None, name: str, *, compiled: bool, slower: str, instead: str = "runs in Python"
+) -> ModuleType | None:
     """``module`` (the extension ``hbtp.<name>``) if ``compiled`` is asked for, else None.
 
     Raises :class:`PlanningError` when C is asked for and the extension is not built; ``slower``
-    names what runs in Python when it is missing, for the warning.
+    names what is slower when it is missing, and ``instead`` how it runs then, for the warning.
     """
     if module is None:
         if compiled:
-            raise PlanningError(f"the C extension hbtp.{name} is not built here ({slower} runs in Python)")
+            raise PlanningError(f"the C extension hbtp.{name} is not built here ({slower} {instead})")
         if name not in _warned:
             _warned.add(name)
             log.warning(
-                "%s runs in Python, several times slower: its C extension hbtp.%s was not built "
+                "%s %s, several times slower: its C extension hbtp.%s was not built "
                 "(install a C compiler, then reinstall hbtp)",
                 slower,
+                instead,
                 name,
             )
     return module if compiled else None
@@ -59,4 +63,4 @@ def kernel(module: ModuleType | None, name: str, *, compiled: bool, slower: str)
 
 def built() -> dict[str, bool]:
     """Whether each optional extension is built here, by name."""
-    return {name: extension(name) is not None for name in (LMCUT, SUBSETS, CHEAP)}
+    return {name: extension(name) is not None for name in (LMCUT, SUBSETS, CHEAP, SIMPLEX)}
