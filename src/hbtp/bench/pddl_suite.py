@@ -373,13 +373,13 @@ def summarise(rows: Sequence[dict[str, Any]], config: PddlConfig, folder: Path) 
 
 
 def _kernel(config: dict[str, Any]) -> str:
-    """Whether LM-cut's rounds and the subset index ran in C (unknown for an older summary)."""
+    """Which optional C extensions the runs had (unknown for an older summary)."""
     built = config.get("c_extensions")
     if built is None:
         return "C extensions not recorded"
     missing = sorted(name for name, ok in built.items() if not ok)
     if not missing:
-        return "LM-cut's rounds and the subset index in C"
+        return f"every C extension built ({', '.join(sorted(built))})"
     return f"in Python: {', '.join(missing)} (C extensions not built)"
 
 
