@@ -304,7 +304,7 @@ def test_too_many_combinations_are_refused_in_one_line(tmp_path: Path, capsys: p
     domain, problem = _briefcase(tmp_path, portables)
     with pytest.raises(GroundingError, match=f"more than {MAX_ALTERNATIVES:,} alternatives") as info:
         load_pddl_scenario(domain, problem, ScenarioOptions(name="b"))
-    assert str(info.value).startswith(f"{domain}:5: action 'move': ")
+    assert str(info.value).startswith(f"{domain}:5:2: action 'move': ")
     tree = tmp_path / "tree.json"
     assert main(["plan", "--pddl", str(domain), str(problem), "-o", str(tree)]) == 2
     assert capsys.readouterr().err.strip().count("\n") == 0

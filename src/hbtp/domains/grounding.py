@@ -627,7 +627,8 @@ class _Grounder:
             yield from self._build(schema, costs_only, warn, skip)
         except TooManyAlternatives as error:
             source = self.domain.source
-            raise GroundingError(f"{source}:{schema.line}: {error}" if source and schema.line else str(error)) from None
+            where = f"{source}:{schema.line}:{schema.column}" if schema.column else f"{source}:{schema.line}"
+            raise GroundingError(f"{where}: {error}" if source and schema.line else str(error)) from None
 
     def _build(
         self, schema: ActionSchema, costs_only: bool, warn: bool, skip: Container[tuple[str, ...]]

@@ -150,6 +150,7 @@ class ActionSchema:
     precondition: Formula
     effect: Effect
     line: int = field(default=0, compare=False)
+    column: int = field(default=0, compare=False)  # of the action's opening parenthesis
 
 
 @dataclass(frozen=True)

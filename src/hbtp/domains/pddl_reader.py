@@ -528,7 +528,7 @@ def _read_action(reader: _Reader, node: SList, scope: _Scope, declared_types: se
     if effect_node is None:
         raise reader.fail(f"action {name!r} has no :effect", node)
     effect = reader.effect(effect_node, inner)
-    return ActionSchema(name, tuple(parameters), precondition, effect, node.line)
+    return ActionSchema(name, tuple(parameters), precondition, effect, node.line, node.column)
 
 
 # ===================================================================== problem
