@@ -8,7 +8,7 @@
   fractional costs, whose estimates are not rounded), on random tasks (with random costs, zero and
   fractional among them) and on conditions of shipped IPC instances,
   and a search with it gives the same tree and counts;
-* a solve the simplex gives up on is asked of HiGHS;
+* a solve the simplex gives up on is asked of HiGHS, and bounds asked again need no pivot;
 * the program refuses arrays that do not match, bounds of the wrong size and a ray before a proof.
 """
 
@@ -188,6 +188,19 @@ def test_a_solve_the_simplex_gives_up_is_asked_of_highs() -> None:
     c.program = GivesUp()
     for atom in range(len(task.atoms)):
         assert c({atom}) == highs({atom})
+
+
+def test_bounds_asked_again_are_answered_from_the_kept_basis_without_a_pivot() -> None:
+    rng = random.Random(7)
+    shape = _random_program(rng)
+    program = _program(*shape)
+    for _ in range(20):
+        lower, upper = _bounds(rng, shape[2], shape[0])
+        first = program.solve(lower, upper)
+        if first[0] == 0:
+            made = program.pivots()
+            assert program.solve(lower, upper) == first
+            assert program.pivots() == made
 
 
 def test_the_program_refuses_what_does_not_match() -> None:

@@ -38,7 +38,6 @@ typedef struct {
     double *lower, *upper;  // per variable (n structural then m slacks)
     double *x, *d;           // values, reduced costs, per variable
     int32_t *head;           // the variable basic in each row position
-    int32_t *position;       // per variable, its row position, or -1
     unsigned char *state;    // per variable: BASIC, AT_LOWER, AT_UPPER
     double *inverse;         // m * m, row-major
     double *work, *alpha, *column, *ray, *scratch;
@@ -116,13 +115,11 @@ static void slack_basis(Program *p) {
     memset(p->inverse, 0, (size_t)(m * m) * sizeof(double));
     for (Py_ssize_t j = 0; j < n; j++) {
         p->state[j] = AT_LOWER;
-        p->position[j] = -1;
         p->x[j] = 0.0;
         p->d[j] = p->cost[j];
     }
     for (Py_ssize_t i = 0; i < m; i++) {
         p->head[i] = (int32_t)(n + i);
-        p->position[n + i] = (int32_t)i;
         p->state[n + i] = BASIC;
         p->d[n + i] = 0.0;
         p->inverse[i * m + i] = -1.0;
@@ -198,10 +195,13 @@ static int place_nonbasic(Program *p) {
     for (Py_ssize_t j = 0; j < total; j++) {
         if (p->state[j] == BASIC) continue;
         double lo = p->lower[j], up = p->upper[j], dj = p->d[j];
+        // A reduced cost of about 0 allows either bound: the one the variable is at is kept, so that
+        // bounds asked again need no pivot.
+        int keep_upper = p->state[j] == AT_UPPER && up != INFINITY && dj <= DUAL_TOL;
         if (lo == up) {
             p->state[j] = AT_LOWER;
             p->x[j] = lo;
-        } else if (dj > DUAL_TOL || (dj >= -DUAL_TOL && lo != -INFINITY)) {
+        } else if (!keep_upper && (dj > DUAL_TOL || (dj >= -DUAL_TOL && lo != -INFINITY))) {
             if (lo == -INFINITY) return 0;
             p->state[j] = AT_LOWER;
             p->x[j] = lo;
@@ -253,8 +253,6 @@ static void pivot(Program *p, Py_ssize_t r, Py_ssize_t q, int to_upper) {
     }
     p->weight[r] = w_r;
     p->head[r] = (int32_t)q;
-    p->position[q] = (int32_t)r;
-    p->position[leaving] = -1;
     p->state[q] = BASIC;
     p->state[leaving] = to_upper ? AT_UPPER : AT_LOWER;
     p->pivots++;
@@ -394,7 +392,6 @@ static void program_dealloc(Program *p) {
     free(p->x);
     free(p->d);
     free(p->head);
-    free(p->position);
     free(p->state);
     free(p->inverse);
     free(p->work);
@@ -453,7 +450,6 @@ static int program_init(Program *p, PyObject *args, PyObject *kwds) {
     p->x = calloc((size_t)total + 1, sizeof(double));
     p->d = calloc((size_t)total + 1, sizeof(double));
     p->head = malloc((size_t)m * sizeof(int32_t) + 1);
-    p->position = malloc((size_t)total * sizeof(int32_t) + 1);
     p->state = malloc((size_t)total + 1);
     p->inverse = malloc((size_t)(m * m) * sizeof(double) + 1);
     p->scratch = malloc((size_t)(m * m) * sizeof(double) + 1);
@@ -464,7 +460,7 @@ static int program_init(Program *p, PyObject *args, PyObject *kwds) {
     p->nonzero = malloc((size_t)(2 * m) * sizeof(int32_t) + 1);
     p->weight = malloc((size_t)m * sizeof(double) + 1);
     if (!p->start || !p->index || !p->value || !p->cost || !p->lower || !p->upper || !p->x || !p->d || !p->head ||
-        !p->position || !p->state || !p->inverse || !p->scratch || !p->work || !p->alpha || !p->column || !p->ray ||
+        !p->state || !p->inverse || !p->scratch || !p->work || !p->alpha || !p->column || !p->ray ||
         !p->nonzero || !p->weight) {
         PyErr_NoMemory();
         goto done;

@@ -48,7 +48,7 @@ from hbtp.deadline import Deadline
 from hbtp.errors import InputError
 from hbtp.logic.subsets import SubsetIndex
 from hbtp.logic.task import GroundAction, GroundTask
-from hbtp.planning.pairs import PairCosts
+from hbtp.planning.pairs import PairCosts, mask_bytes
 
 _INSTALL = "the state-equation heuristic (seq) needs HiGHS: pip install 'hbtp[lp]' (highspy)"
 _SETUP = "setting up the state equation"
@@ -212,7 +212,7 @@ def _reachable_pairs(pairs: PairCosts | None, count: int) -> Any:
     import numpy as np
 
     size = (count + 7) // 8
-    rows = b"".join((history[-1][1] if history else 0).to_bytes(size, "little") for history in pairs.history)
+    rows = b"".join(mask_bytes(history[-1][1] if history else 0, count) for history in pairs.history)
     bits = np.unpackbits(np.frombuffer(rows, dtype=np.uint8).reshape(count, size), axis=1, bitorder="little")
     return bits[:, :count].astype(bool)
 

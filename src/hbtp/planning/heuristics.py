@@ -46,7 +46,7 @@ from hbtp.deadline import Deadline
 from hbtp.logic.task import GroundAction, GroundTask
 from hbtp.planning.flow import StateEquation
 from hbtp.planning.lmcut import LmCut
-from hbtp.planning.pairs import COMPILED, PairCosts, cheap_kernel, pair_costs
+from hbtp.planning.pairs import COMPILED, PairCosts, cheap_kernel, mask_bytes, pair_costs
 
 HeuristicName = Literal["none", "hmax", "lm", "lmcut", "seq"]
 HEURISTICS: tuple[str, ...] = ("none", "hmax", "lm", "lmcut", "seq")
@@ -233,9 +233,9 @@ class Landmarks(Sequence["frozenset[int] | None"]):
 
 def _bit_lists(kernel: ModuleType, masks: Sequence[int | None]) -> tuple[bytes, bytes]:
     """The C kernel's form of per-atom bit masks (``None``: no set): spans into one list of atoms."""
-    size = (len(masks) + 7) // 8
+    count = len(masks)
     lists: tuple[bytes, bytes] = kernel.bit_lists(
-        len(masks), (None if mask is None else mask.to_bytes(size, "little") for mask in masks)
+        count, (None if mask is None else mask_bytes(mask, count) for mask in masks)
     )
     return lists
 

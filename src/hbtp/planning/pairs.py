@@ -47,6 +47,11 @@ def cheap_kernel(compiled: bool) -> ModuleType | None:
     )
 
 
+def mask_bytes(mask: int, count: int) -> bytes:
+    """A bit mask over ``count`` atoms as the C kernels and numpy read it: little-endian bytes."""
+    return mask.to_bytes((count + 7) // 8, "little")
+
+
 #: The largest task (in atoms) whose pair costs are computed: the table grows with the square of the
 #: atoms (RobotHow, 4,914 atoms, would take seconds; IPC instances have hundreds).
 MAX_ATOMS = 2000
@@ -101,12 +106,12 @@ class PairCosts:
     def pair_table(self) -> bytes:
         """h² of every pair of atoms, as the C kernel reads it (its table, made there)."""
         assert self.kernel is not None
-        size = (len(self.history) + 7) // 8
+        count = len(self.history)
         rows = (
-            ([level for level, _ in entries], b"".join(mask.to_bytes(size, "little") for _, mask in entries))
+            ([level for level, _ in entries], b"".join(mask_bytes(mask, count) for _, mask in entries))
             for entries in self.history
         )
-        table: bytes = self.kernel.pair_table(len(self.history), rows)
+        table: bytes = self.kernel.pair_table(count, rows)
         return table
 
 
