@@ -319,7 +319,7 @@ def test_the_btcpp_engine_says_how_to_install_the_binding(monkeypatch: pytest.Mo
 def test_the_btcpp_run_writes_a_log_groot2_replays(tmp_path: Path, planned: Any) -> None:
     pytest.importorskip("behaviortreepy")
     task, result = planned["robothow-small", CASES_GOAL]
-    log_file = tmp_path / "logs" / "run.btlog"
+    log_file = tmp_path / "run.btlog"
     run = BtcppEngine(tree_of(result), task).run(max_ticks=100, watch=Watch(btlog=log_file))
     log = read_btlog(log_file)
     names = {a.name for a in task.actions}

@@ -82,7 +82,7 @@ def test_svg_and_png_render(tmp_path: Path, small: tuple[GroundTask, Node]) -> N
     root = ET.fromstring(svg)
     assert root.tag.endswith("svg")
     assert b"RightPutIn(apple,fridge)" in svg
-    target = tmp_path / "out" / "tree.png"
+    target = tmp_path / "tree.png"
     write_export(tree, task, target, "png")
     assert target.read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
     assert [p.name for p in target.parent.iterdir()] == ["tree.png"]  # no temporary file left

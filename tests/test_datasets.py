@@ -328,8 +328,8 @@ def test_unreadable_files_raise_dataset_error(tmp_path: Path, reader: object) ->
     binary = tmp_path / "bad.txt"
     binary.write_bytes(b"1\n\xff\xfe\n")
     for path, fragment in (
-        (tmp_path / "missing.txt", "cannot read dataset file"),
-        (tmp_path, "cannot read dataset file"),
+        (tmp_path / "missing.txt", "cannot read the dataset file"),
+        (tmp_path, "cannot read the dataset file"),
         (binary, "not UTF-8"),
     ):
         with pytest.raises(DatasetError, match=fragment) as caught:

@@ -198,6 +198,7 @@ def planned_tree() -> tuple[GroundTask, Node]:
 
 def test_write_export_and_read_tree(tmp_path: Path, planned_tree: tuple[GroundTask, Node]) -> None:
     task, tree = planned_tree
+    (tmp_path / "sub").mkdir()
     for name in ("a.json", "b.xml"):
         path = tmp_path / "sub" / name
         write_export(tree, task, path, scenario="robothow-small", goal=GOAL)

@@ -174,7 +174,7 @@ def test_noisy_oracle_rejects_bad_rates(robowaiter: Scenario, drop: float, inser
 # ---------------------------------------------------------------------------------- record / replay
 def test_recording_then_replaying_the_loop(tmp_path: Path, robothow_small: Scenario) -> None:
     pool = example_pool(robothow_small)
-    record_file = tmp_path / "sub" / "replies.jsonl"
+    record_file = tmp_path / "replies.jsonl"
     inner = NoisyOracleBackend(robothow_small, drop=0.5, insert=0.5, seed=2)
     recorder = RecordingBackend(inner, record_file)
     assert recorder.name == "record:noisy-oracle"

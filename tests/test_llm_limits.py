@@ -345,8 +345,8 @@ def test_bad_llm_inputs_are_one_line_errors(capsys: pytest.CaptureFixture[str], 
     base = ["plan", "-s", "robowaiter", "-g", GOAL]
     cases = [
         ([*base, "--llm", f"replay:{binary}"], "not UTF-8"),
-        ([*base, "--llm", f"replay:{tmp_path}"], "is a directory"),
-        ([*base, "--llm", "oracle", "--record", "/proc/x/rec.jsonl"], "cannot write the record file"),
+        ([*base, "--llm", f"replay:{tmp_path}"], "it is a folder"),
+        ([*base, "--llm", "oracle", "--record", "/proc/x/rec.jsonl"], "the folder /proc/x does not exist"),
         ([*base, "--llm", "openai", "--base-url", "http://[::1"], "malformed"),
     ]
     for argv, expected in cases:

@@ -67,7 +67,7 @@ def test_cli_reports_a_bad_mutex_file_in_one_line(
     lines = [line for line in err.splitlines() if line.strip()]
     assert code == EXIT_INPUT, err
     assert len(lines) == 1, err
-    assert lines[0].startswith(f"hbtp: error: {path}: ")
+    assert lines[0].startswith(f"hbtp: error: {path}:")
     assert "internal error" not in err
     assert "Traceback" not in err
 

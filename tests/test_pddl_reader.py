@@ -424,7 +424,7 @@ def test_comments_are_skipped_and_positions_count_from_one() -> None:
 
 def test_file_reading_errors_are_pddl_errors(tmp_path: Path) -> None:
     missing = tmp_path / "missing.pddl"
-    with pytest.raises(PddlError, match="cannot read file") as info:
+    with pytest.raises(PddlError, match="cannot read the PDDL file") as info:
         read_domain_file(missing)
     assert info.value.source == str(missing)
     binary = tmp_path / "binary.pddl"

@@ -280,7 +280,7 @@ def test_hints_file_without_any_hints_is_an_input_error(capsys: pytest.CaptureFi
     assert "no hints found" in one_line_error(err)
     code, _, err = run(capsys, "plan", "-s", "robothow", "-g", MILK, "--hints", str(tmp_path / "missing.txt"))
     assert code == EXIT_INPUT
-    assert "cannot read hints file" in one_line_error(err)
+    assert "cannot read the hints file" in one_line_error(err)
 
 
 # ------------------------------------------------------------------ tree files and determinism
@@ -290,6 +290,7 @@ def test_out_writes_a_json_tree_that_reads_back_to_the_same_tree(
     reply = tmp_path / "reply.txt"
     reply.write_text(PAPER_REPLY, encoding="utf-8")
     out = tmp_path / "trees" / "tree.json"
+    out.parent.mkdir()
     code, _, _ = run(
         capsys,
         "plan",
@@ -450,8 +451,8 @@ def test_goal_from_a_file_and_from_standard_input(
     ("content", "name", "needle"),
     [
         (None, "missing.txt", "missing.txt: cannot read the goal: No such file or directory"),
-        (None, "", "cannot read the goal: Is a directory"),
-        (b"On_Coffee_\xff_Table1", "latin.txt", "latin.txt: the goal is not UTF-8 text (byte 10)"),
+        (None, "", "cannot read the goal: it is a folder"),
+        (b"On_Coffee_\xff_Table1", "latin.txt", "latin.txt:1:11: the goal is not UTF-8 text (byte 10)"),
         (b"", "empty.txt", "empty goal"),
     ],
 )

@@ -254,33 +254,39 @@ def pddl_files(tmp_path: Path) -> tuple[Path, Path]:
 
 
 def test_goals_with_underscores_and_recorded_pddl_files_read_back(
-    tmp_path: Path, pddl_files: tuple[Path, Path], capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, pddl_files: tuple[Path, Path], capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
 ) -> None:
     domain, problem = pddl_files
     out = tmp_path / "trees" / "tree.json"
+    out.parent.mkdir()
     goal = "have_image(star_1,thermo_graph)"
     code, _, err = _run(capsys, "plan", "--pddl", str(domain), str(problem), "-g", goal, "-o", str(out))
     assert code == EXIT_OK, err
+    assert "records PDDL files outside its folder" in caplog.text  # reading it back will need --pddl
     document = json.loads(out.read_text(encoding="utf-8"))
     assert document["goal"] == ["have_image(star_1,thermo_graph)"]
     assert document["pddl"] == {"domain": "../pddl/domain.pddl", "problem": "../pddl/problem.pddl"}
-    # No --pddl and no --goal: both come from the file.
+    # Files outside the tree's folder are not opened unless --pddl names them.
     for command in ("run", "verify"):
         code, out_text, err = _run(capsys, command, str(out))
+        assert code == EXIT_INPUT, (command, err)
+        assert "outside the tree file's folder" in _one_error_line(err)
+        code, out_text, err = _run(capsys, command, str(out), "--pddl", str(domain), str(problem))
         assert code == EXIT_OK, (command, err)
-    code, out_text, err = _run(capsys, "export", str(out), "-f", "text")
+    code, out_text, err = _run(capsys, "export", str(out), "-f", "text", "--pddl", str(domain), str(problem))
     assert code == EXIT_OK, err
     assert "# goal: have_image(star_1,thermo_graph)" in out_text
     # Files written before goals were stored as lists: the underscored string is matched to the task.
     document["goal"] = "have_image_star_1_thermo_graph"
-    old = tmp_path / "trees" / "old.json"
+    document["pddl"] = {"domain": "pddl/domain.pddl", "problem": "pddl/problem.pddl"}
+    old = tmp_path / "old.json"
     old.write_text(json.dumps(document), encoding="utf-8")
     code, out_text, err = _run(capsys, "verify", str(old), "--json")
     assert code == EXIT_OK, err
     assert json.loads(out_text)["goal"] == "have_image(star_1,thermo_graph)"
     # Exported to JSON again, the PDDL files stay recorded, relative to the new file.
     again = tmp_path / "again.json"
-    assert main(["export", str(out), "-o", str(again)]) == EXIT_OK
+    assert main(["export", str(old), "-o", str(again)]) == EXIT_OK
     assert json.loads(again.read_text(encoding="utf-8"))["pddl"]["domain"] == "pddl/domain.pddl"
     assert main(["verify", str(again)]) == EXIT_OK
 
@@ -383,10 +389,9 @@ def test_export_to_a_folder_is_bad_input(
     assert f"cannot write {blocker / 'out.txt'}" in _one_error_line(err)
     folder = tmp_path / "out.txt"
     folder.mkdir()
-    code, _, err = _run(capsys, "export", str(path), "-o", str(folder))  # a usage error: the same last line
+    code, _, err = _run(capsys, "export", str(path), "-o", str(folder))  # a usage error: one line too
     assert code == EXIT_INPUT
-    assert err.splitlines()[0].startswith("Usage: hbtp export")
-    assert err.splitlines()[-1].startswith("hbtp: error: Invalid value for '-o' / '--out'")
+    assert _one_error_line(err).startswith("hbtp: error: Invalid value for '-o' / '--out'")
 
 
 def test_export_tree_keeps_its_goal_text(planned: Node, robothow_small: Scenario) -> None:

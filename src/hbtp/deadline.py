@@ -12,6 +12,7 @@ import time
 from dataclasses import dataclass, field
 
 from hbtp.errors import InputError, PlanningError
+from hbtp.memory import MemoryLimitReached, resident_mb
 
 
 class TimeLimitReached(PlanningError):
@@ -20,10 +21,13 @@ class TimeLimitReached(PlanningError):
 
 @dataclass(frozen=True)
 class Deadline:
-    """``seconds`` after ``started`` (a :func:`time.perf_counter` value; default: now)."""
+    """``seconds`` after ``started`` (a :func:`time.perf_counter` value; default: now).
+
+    ``memory_mb``, the command's memory limit, is checked with the time (:meth:`check`)."""
 
     seconds: float
     started: float = field(default_factory=time.perf_counter)
+    memory_mb: float | None = None
 
     def __post_init__(self) -> None:
         if not self.seconds > 0:
@@ -45,9 +49,12 @@ class Deadline:
         return f"time limit of {self.seconds:g} s reached while {phase}"
 
     def check(self, phase: str) -> None:
-        """Raise :class:`TimeLimitReached` naming ``phase`` (e.g. ``"grounding"``) once the deadline passed."""
+        """Raise :class:`TimeLimitReached` naming ``phase`` (e.g. ``"grounding"``) once the deadline
+        passed, or :class:`~hbtp.memory.MemoryLimitReached` once the process is past ``memory_mb``."""
         if self.expired():
             raise TimeLimitReached(self.message(phase))
+        if self.memory_mb is not None and resident_mb() > self.memory_mb:
+            raise MemoryLimitReached(f"memory limit of {self.memory_mb:g} MB reached while {phase}")
 
 
 def check_deadline(deadline: Deadline | None, phase: str) -> None:

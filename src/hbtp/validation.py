@@ -56,6 +56,7 @@ from hbtp.domains.mutex import Mutexes
 from hbtp.domains.pddl_writer import GOAL_ACTION, keyword_safe_predicates
 from hbtp.domains.scenarios import ScenarioOptions
 from hbtp.errors import BackendError, InputError
+from hbtp.files import InputKind, read_text
 from hbtp.logic.task import Goal, GroundAction, GroundTask
 from hbtp.planning import Limits, PlanResult, Status, plan
 
@@ -220,7 +221,7 @@ def run_fast_downward_files(domain_file: Path, problem_file: Path, *, time_limit
     (some negated quantifiers and disjunctive goals become axioms), which neither supports."""
     _require_extra()
     started = time.perf_counter()
-    texts = Path(domain_file).read_text(encoding="utf-8"), Path(problem_file).read_text(encoding="utf-8")
+    texts = read_text(domain_file, InputKind.PDDL), read_text(problem_file, InputKind.PDDL)
     with tempfile.TemporaryDirectory(prefix="hbtp-fd-") as folder, contextlib.chdir(folder):
         copies = Path(folder, "domain.pddl"), Path(folder, "problem.pddl")
         for copy, text in zip(copies, texts, strict=True):

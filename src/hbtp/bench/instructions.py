@@ -32,6 +32,7 @@ from hbtp.bt.simulate import simulate
 from hbtp.datasets.instructions import InstructionRecord, load_instructions
 from hbtp.domains import Scenario, load_scenario
 from hbtp.errors import HbtpError
+from hbtp.files import write_atomically
 from hbtp.llm.backend import Backend
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import parse_goal
@@ -162,7 +163,7 @@ def run_instructions(bench: InstructionsBench, make: Any, out: Path) -> dict[str
     rows = list(results.ordered(keys))
     summary = {"backend": bench.backend_name, "scenarios": summarise(rows)}
     write_json(out / "summary.json", summary)
-    (out / "report.md").write_text(report(summary), encoding="utf-8")
+    write_atomically(out / "report.md", report(summary), create_folders=True)
     return summary
 
 

@@ -57,10 +57,10 @@ from hbtp.llm.backend import Backend
 from hbtp.llm.backends.registry import BackendOptions
 from hbtp.llm.pool import example_pool
 from hbtp.logic.task import Goal, GroundTask
+from hbtp.memory import resident_mb
 from hbtp.pipeline import LoopOptions, run_hbtp
 from hbtp.planning import Limits, PlanResult, plan, release_search_memory
 from hbtp.planning.generate import LEVELS, Sampling, generate_records
-from hbtp.planning.limits import resident_mb
 
 SIZE_DATASET = "table1_robothow_100"
 #: The Table II sets in order of difficulty (mean |p*| 2.46, 4.54, 6.50, 8.70).

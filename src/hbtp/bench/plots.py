@@ -5,11 +5,14 @@ Every function takes a benchmark's summary and a path, and returns whether it wr
 
 from __future__ import annotations
 
+import io
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+from hbtp.files import write_atomically
 
 log = logging.getLogger(__name__)
 
@@ -93,10 +96,11 @@ def _pyplot() -> Any:
 
 def _save(plt: Any, figure: Any, path: Path) -> bool:
     figure.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
     # No timestamp in the PNG's metadata: the same summary gives the same bytes.
-    figure.savefig(path, dpi=110, metadata={"Software": None})
+    picture = io.BytesIO()
+    figure.savefig(picture, format="png", dpi=110, metadata={"Software": None})
     plt.close(figure)
+    write_atomically(path, picture.getvalue(), create_folders=True)
     return True
 
 

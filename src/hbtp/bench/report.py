@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from hbtp.bench.plots import PLANNER_LABELS
+from hbtp.files import write_atomically
 
 
 def _num(value: Any, digits: int = 2) -> str:
@@ -323,8 +324,7 @@ def _replanning_table(summary: dict[str, Any]) -> list[str]:
 
 def write_report(path: Path, title: str, sections: Sequence[str]) -> None:
     """``report.md``: a title, then the sections."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(f"# {title}\n\n" + "\n\n".join(sections).rstrip() + "\n", encoding="utf-8")
+    write_atomically(path, f"# {title}\n\n" + "\n\n".join(sections).rstrip() + "\n", create_folders=True)
 
 
 __all__ = ["fig3_section", "fig4_section", "robustness_section", "table1_section", "table2_section", "write_report"]

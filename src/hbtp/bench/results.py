@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from hbtp.errors import InputError
+from hbtp.files import InputKind, open_output, read_text, write_atomically
 
 log = logging.getLogger(__name__)
 
@@ -22,7 +23,7 @@ class ResultsFile:
         self.key_fields = tuple(key_fields)
         self.rows: dict[tuple[Any, ...], dict[str, Any]] = {}
         if path.exists():
-            for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            for number, line in enumerate(read_text(path, InputKind.RESULTS).splitlines(), 1):
                 if not line.strip():
                     continue
                 try:
@@ -42,8 +43,7 @@ class ResultsFile:
         return key in self.rows
 
     def append(self, row: dict[str, Any]) -> None:
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        with self.path.open("a", encoding="utf-8") as handle:
+        with open_output(self.path, append=True, create_folders=True) as handle:
             handle.write(json.dumps(row, sort_keys=True) + "\n")
         self.rows[self.key(row)] = row
 
@@ -64,15 +64,13 @@ def median(values: Sequence[float]) -> float | None:
 def read_json(path: Path) -> Any:
     """The JSON in ``path``; a file that cannot be read or parsed is an :class:`InputError`."""
     try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except OSError as error:
-        raise InputError(f"{path}: cannot read: {error.strerror or error}") from None
-    except ValueError as error:  # invalid JSON or UTF-8
+        return json.loads(read_text(path, InputKind.RESULTS))
+    except ValueError as error:  # invalid JSON
         raise InputError(f"{path}: not valid JSON: {error}") from None
     except RecursionError:
         raise InputError(f"{path}: not valid JSON: nested too deeply") from None
 
 
 def write_json(path: Path, data: Any) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+    """``data`` as JSON in ``path`` (its folder created: a benchmark's ``-o DIR``)."""
+    write_atomically(path, json.dumps(data, indent=1, sort_keys=True) + "\n", create_folders=True)

@@ -27,6 +27,7 @@ from __future__ import annotations
 import contextlib
 import importlib
 import logging
+import tempfile
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -38,6 +39,7 @@ from hbtp.bt.btlog import read_btlog
 from hbtp.bt.nodes import Node
 from hbtp.bt.simulate import simulate
 from hbtp.errors import HbtpError, InputError
+from hbtp.files import InputKind, check_output, read_bytes, write_atomically
 from hbtp.logic.execution import Disturbance, NodeStatus, Run
 from hbtp.logic.task import GroundTask, State
 
@@ -167,28 +169,35 @@ class Watch:
 
     @contextlib.contextmanager
     def attached(self, bt: Any, tree: Any) -> Iterator[None]:
-        """The publisher and the logger attached to ``tree`` while the run lasts (the log flushed)."""
-        publisher = logger = None
-        if self.groot_port is not None:
-            try:
-                publisher = bt.Groot2Publisher(tree, self.groot_port)
-            except RuntimeError as error:  # the port is taken (by Groot2Publisher or another program)
-                raise InputError(f"cannot publish to Groot2 on port {self.groot_port}: {error}") from None
+        """The publisher and the logger attached to ``tree`` while the run lasts (the log flushed).
+
+        BT.CPP's logger writes a file of a private temporary folder; the whole log is then written
+        to ``btlog`` as hbtp writes every output (a regular file only, all or nothing)."""
         if self.btlog is not None:
-            self.btlog.parent.mkdir(parents=True, exist_ok=True)
-            logger = bt.FileLogger(tree, str(self.btlog))
-        try:
-            yield
-        finally:
-            if logger is not None:
-                # Not logger.flush(): in BT.CPP 4.8 it writes the file from this thread while the
-                # logger's writer thread does too (a race fixed upstream in BehaviorTree.CPP #1102)
-                # and can garble the log. The writer thread wakes every 10 ms: let it drain its
-                # queue, then the destructor stops it and closes the file.
-                time.sleep(LOG_DRAIN_S)
-            del logger, publisher
+            check_output(self.btlog)
+        with tempfile.TemporaryDirectory(prefix="hbtp-btlog-") as folder:
+            publisher = logger = None
+            staged = Path(folder) / "run.btlog"
+            if self.groot_port is not None:
+                try:
+                    publisher = bt.Groot2Publisher(tree, self.groot_port)
+                except RuntimeError as error:  # the port is taken (by Groot2Publisher or another program)
+                    raise InputError(f"cannot publish to Groot2 on port {self.groot_port}: {error}") from None
             if self.btlog is not None:
-                _await_whole_log(self.btlog)
+                logger = bt.FileLogger(tree, str(staged))
+            try:
+                yield
+            finally:
+                if logger is not None:
+                    # Not logger.flush(): in BT.CPP 4.8 it writes the file from this thread while the
+                    # logger's writer thread does too (a race fixed upstream in BehaviorTree.CPP #1102)
+                    # and can garble the log. The writer thread wakes every 10 ms: let it drain its
+                    # queue, then the destructor stops it and closes the file.
+                    time.sleep(LOG_DRAIN_S)
+                del logger, publisher
+                if self.btlog is not None:
+                    _await_whole_log(staged)
+                    write_atomically(self.btlog, read_bytes(staged, InputKind.TRACE))
 
 
 #: Seconds to wait for BT.CPP's log writer (a thread of its own) to finish the file.

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from hbtp.errors import InputError
+from hbtp.files import InputKind, read_bytes
 
 __all__ = ["MAGIC", "BtLog", "Transition", "read_btlog"]
 
@@ -49,10 +50,7 @@ class BtLog:
 def read_btlog(path: str | Path) -> BtLog:
     """Read a ``.btlog`` file (:class:`InputError` with the reason when it is not one)."""
     where = Path(path)
-    try:
-        data = where.read_bytes()
-    except OSError as error:
-        raise InputError(f"{where}: cannot read the log: {error.strerror or error}") from None
+    data = read_bytes(where, InputKind.TRACE)
     if not data.startswith(MAGIC) or len(data) < len(MAGIC) + 5:
         raise InputError(f"{where}: not a BehaviorTree.CPP FileLogger2 log (no {MAGIC.decode()} header)")
     position = len(MAGIC) + 1

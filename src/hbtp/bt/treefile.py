@@ -11,6 +11,7 @@ The format comes from the first character after any byte-order mark and white sp
 
 from __future__ import annotations
 
+import logging
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -21,20 +22,48 @@ from hbtp.bt.btcpp import btcpp_metadata, tree_from_btcpp
 from hbtp.bt.jsonio import json_document, root_from_document
 from hbtp.bt.nodes import Node
 from hbtp.errors import InputError
+from hbtp.files import InputKind, read_bytes
 from hbtp.logic.atoms import Atom, parse_atom, split_conjunction
 from hbtp.logic.goals import parse_goal
 from hbtp.logic.task import Goal, GroundTask
 
+log = logging.getLogger(__name__)
+
 
 @dataclass(frozen=True)
 class PddlFiles:
-    """The PDDL a tree was planned from, with the options it was grounded with."""
+    """The PDDL a tree was planned from, with the options it was grounded with.
+
+    Read from a tree file, ``folder`` is the tree file's folder: the recorded paths are relative to
+    it, and :meth:`confined` refuses any that leaves it (an absolute path, ``..``, a symbolic link
+    out of it), so that a tree file cannot make hbtp open ``/etc/shadow``.
+    """
 
     domain: Path
     problem: Path
     objects: tuple[str, ...] = ()
     keep_fluent: tuple[str, ...] = ()
     mutex: Path | None = None
+    folder: Path | None = None
+
+    def paths(self) -> tuple[Path, ...]:
+        return (self.domain, self.problem) if self.mutex is None else (self.domain, self.problem, self.mutex)
+
+    def outside(self, folder: Path) -> list[Path]:
+        """The files that do not lie inside ``folder`` (after resolving ``..`` and symbolic links)."""
+        root = Path(folder).resolve()
+        return [path for path in self.paths() if not Path(path).resolve().is_relative_to(root)]
+
+    def confined(self, source: str) -> PddlFiles:
+        """These files, checked to lie inside the tree file's folder (:class:`InputError` if not)."""
+        if self.folder is not None:
+            outside = self.outside(self.folder)
+            if outside:
+                raise InputError(
+                    f"{source} records the PDDL file {_shown(outside[0], self.folder)}, outside the tree file's "
+                    "folder: hbtp opens only files beside the tree; give --pddl DOMAIN PROBLEM"
+                )
+        return self
 
     def to_dict(self, relative_to: Path) -> dict[str, Any]:
         """What a JSON tree written into the folder ``relative_to`` records (paths relative to it)."""
@@ -56,7 +85,7 @@ class PddlFiles:
 
         def path(key: str) -> Path:
             value = data.get(key)
-            if not isinstance(value, str) or not value:
+            if not isinstance(value, str) or not value or "\0" in value:
                 raise InputError(f'{source}: "pddl" needs the {key} file as a string')
             return folder / value
 
@@ -74,7 +103,16 @@ class PddlFiles:
             names("objects"),
             names("keep_fluent"),
             path("mutex") if data.get("mutex") is not None else None,
+            folder,
         )
+
+
+def _shown(path: Path, folder: Path) -> str:
+    """``path`` as the tree file records it (relative to its folder where it can be)."""
+    try:
+        return repr(Path(path).relative_to(folder).as_posix())
+    except ValueError:
+        return repr(Path(path).as_posix())
 
 
 def _relative(path: Path, folder: Path) -> str:
@@ -150,12 +188,11 @@ def _literal(task: GroundTask, text: str) -> Atom:
 def read_tree_file(path: str | os.PathLike[str]) -> TreeFile:
     """Read a tree file (hbtp JSON or BehaviorTree.CPP v4 XML); see the module docstring."""
     source = str(path)
+    data = read_bytes(path, InputKind.TREE)
     try:
-        text = Path(path).read_text(encoding="utf-8-sig")
+        text = data.decode("utf-8-sig")
     except UnicodeDecodeError:
         raise InputError(f"{source}: not a text file (expected hbtp JSON or BehaviorTree.CPP XML)") from None
-    except OSError as error:
-        raise InputError(f"{source}: cannot read the tree: {error.strerror}") from None
     suffix = Path(path).suffix.lower()
     start = text.lstrip()[:1]
     if start == "{" or (start != "<" and suffix == ".json"):
@@ -188,9 +225,22 @@ def _json_file(source: str, text: str) -> TreeFile:
     return TreeFile(source, "json", scenario or None, stored, complete, files, document)
 
 
-def pddl_record(files: PddlFiles | None, tree_path: str | os.PathLike[str]) -> Mapping[str, Any] | None:
-    """The ``"pddl"`` record of a JSON tree written to ``tree_path`` (``None`` for no PDDL)."""
-    return None if files is None else files.to_dict(Path(tree_path).parent)
+def pddl_record(
+    files: PddlFiles | None, tree_path: str | os.PathLike[str], *, warn: bool = False
+) -> Mapping[str, Any] | None:
+    """The ``"pddl"`` record of a JSON tree written to ``tree_path`` (``None`` for no PDDL); with
+    ``warn``, a warning when the files lie outside its folder (reading the tree back will then
+    need ``--pddl``, see :meth:`PddlFiles.confined`)."""
+    if files is None:
+        return None
+    folder = Path(tree_path).parent
+    if warn and files.outside(folder):
+        log.warning(
+            "%s records PDDL files outside its folder: "
+            "hbtp run, verify, view and export of it need --pddl DOMAIN PROBLEM",
+            tree_path,
+        )
+    return files.to_dict(folder)
 
 
 __all__ = ["PddlFiles", "TreeFile", "pddl_record", "read_tree_file"]

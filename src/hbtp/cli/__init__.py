@@ -112,17 +112,17 @@ def _is_broken_pipe(error: OSError) -> bool:
 
 
 def _report_click_error(error: click.ClickException) -> int:
-    """Click's usage line (for a usage error), then the one ``hbtp: error:`` line; the help for a
-    bare ``hbtp`` (exit code 2, as click does)."""
+    """The one ``hbtp: error:`` line, ending for a usage error with where the help is; the help
+    for a bare ``hbtp`` (exit code 2, as click does)."""
     if isinstance(error, click.exceptions.NoArgsIsHelpError):
         error.show()
         return ExitCode.INPUT
+    message = error.format_message()
     if isinstance(error, click.UsageError) and error.ctx is not None:
-        click.echo(error.ctx.get_usage(), err=True)
         help_option = next(iter(error.ctx.help_option_names), None)
         if help_option is not None and error.ctx.command.get_help_option(error.ctx) is not None:
-            click.echo(f"Try '{error.ctx.command_path} {help_option}' for help.", err=True)
-    click.echo(error_line(error.format_message()), err=True)
+            message += f" (see '{error.ctx.command_path} {help_option}')"
+    click.echo(error_line(message), err=True)
     return error.exit_code if error.exit_code in (ExitCode.NOT_SOLVED, ExitCode.INPUT) else ExitCode.INPUT
 
 

@@ -8,7 +8,7 @@ from typing import Any, TypeVar
 
 import click
 
-from hbtp.cli.options import ScenarioSource, echo_json, scenario_options, write_files_atomically
+from hbtp.cli.options import ScenarioSource, checked_output, echo_json, output_option, scenario_options
 from hbtp.datasets import (
     DATASET_SCENARIO,
     dataset_names,
@@ -21,6 +21,7 @@ from hbtp.datasets import (
 from hbtp.datasets.records import Record
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError
+from hbtp.files import write_all_atomically
 from hbtp.planning import Limits
 from hbtp.planning.generate import LEVELS, Sampling, generate_records, statistics
 from hbtp.planning.oracle import optimal_cost_function
@@ -86,12 +87,12 @@ def validate(dataset_source: str, source: ScenarioSource, check_optimal: bool, t
 
 @dataset.command("convert")
 @click.argument("source")
-@click.argument("target", type=click.Path(dir_okay=False))
+@click.argument("target", type=click.Path(dir_okay=False), callback=checked_output)
 def convert(source: str, target: str) -> int:
     """Convert SOURCE to TARGET: .jsonl writes our JSONL format, anything else the reference text format."""
     _, records = load_records(source)
     text = write_jsonl(records) if target.endswith(".jsonl") else write_text(records)
-    write_files_atomically({Path(target): text})
+    write_all_atomically({Path(target): text})
     click.echo(f"wrote {len(records)} records to {target}")
     return 0
 
@@ -104,7 +105,7 @@ def write_generated(loaded: Scenario, level: str, count: int, sampling: Sampling
         raise InputError(f"{loaded.name}: no {level} goal found to generate (the domain has none within the limits)")
     text = write_jsonl(records) if output and output.endswith(".jsonl") else write_text(records)
     if output:
-        write_files_atomically({Path(output): text})
+        write_all_atomically({Path(output): text})
     else:
         click.echo(text, nl=False)
     figures = statistics(records)
@@ -125,8 +126,8 @@ def generation_options(default_count: int) -> list[Callable[[F], F]]:
         click.option("--seed", type=int, default=0, show_default=True, help="Random seed (same seed, same file)."),
         click.option("--max-expansions", type=click.IntRange(1), default=Sampling().max_expansions,
                      show_default=True, help="Bound of each labelling search (a goal past it is skipped)."),
-        click.option("-o", "--output", type=click.Path(dir_okay=False),
-                     help="File to write (.jsonl: JSONL; else the text format); default: standard output."),
+        output_option("-o", "--output",
+                      help="File to write (.jsonl: JSONL; else the text format); default: standard output."),
     ]  # fmt: skip
 
 

@@ -7,10 +7,11 @@ from pathlib import Path
 
 import click
 
-from hbtp.cli.options import ScenarioSource, echo_json, scenario_options, write_files_atomically
+from hbtp.cli.options import ScenarioSource, echo_json, scenario_options
 from hbtp.domains import Scenario, load_scenario, scenario_names, write_domain, write_grounded, write_problem
 from hbtp.domains.lifted import And, AtomFormula
 from hbtp.errors import InputError
+from hbtp.files import write_all_atomically
 
 
 @click.command()
@@ -88,7 +89,14 @@ def _goal_actions(loaded: Scenario) -> int | None:
 @click.command("export-pddl")
 @scenario_options
 @click.option("-g", "--goal", required=True, help='Goal, e.g. "IsIn_milk_fridge & IsClose_fridge".')
-@click.option("-o", "--out", "out_dir", required=True, type=click.Path(file_okay=False), help="Output folder.")
+@click.option(
+    "-o",
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Output folder (created if missing).",
+)
 @click.option(
     "--lifted",
     is_flag=True,
@@ -117,6 +125,6 @@ def export_pddl(
         domain_text, problem_text = write_domain(loaded.pddl.domain), write_problem(problem)
     else:
         domain_text, problem_text = write_grounded(loaded.task, resolved)
-    write_files_atomically({out / "domain.pddl": domain_text, out / "problem.pddl": problem_text})
+    write_all_atomically({out / "domain.pddl": domain_text, out / "problem.pddl": problem_text}, create_folders=True)
     click.echo(f"wrote {out / 'domain.pddl'} and {out / 'problem.pddl'}")
     return 0

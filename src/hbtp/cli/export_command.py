@@ -15,7 +15,7 @@ import click
 from hbtp.bt.export import FORMATS, export_tree, format_from_extension, write_export
 from hbtp.bt.jsonio import goal_text, tree_to_json
 from hbtp.bt.treefile import pddl_record, read_tree_file
-from hbtp.cli.options import ScenarioSource, scenario_options
+from hbtp.cli.options import ScenarioSource, output_option, scenario_options
 from hbtp.cli.tree_input import pddl_files, resolve_tree, scenario_for
 from hbtp.errors import InputError
 from hbtp.files import write_atomically
@@ -36,10 +36,9 @@ def export_options(function: F) -> F:
         type=click.Choice(list(FORMATS)),
         help="Format of --export (default: from its extension).",
     )(function)
-    function = click.option(
+    function = output_option(
         "--export",
         "export_file",
-        type=click.Path(dir_okay=False),
         help="Also export the tree to FILE (.xml BT.CPP, .py py_trees, .dot, .svg, .png, .mmd, .json, .txt).",
     )(function)
     return function
@@ -51,9 +50,7 @@ def export_options(function: F) -> F:
 @click.option(
     "-f", "--format", "fmt", type=click.Choice(list(FORMATS)), help="Output format (default: from --out's extension)."
 )
-@click.option(
-    "-o", "--out", "out_file", type=click.Path(dir_okay=False), help="Output file (default: standard output)."
-)
+@output_option("-o", "--out", "out_file", help="Output file (default: standard output).")
 def export_command(
     tree_file: str,
     source: ScenarioSource,
@@ -81,7 +78,7 @@ def export_command(
             scenario=loaded.name,
             goal=goal_line,
             complete=file.complete,
-            pddl=pddl_record(pddl, out_file or "."),
+            pddl=pddl_record(pddl, out_file or ".", warn=out_file is not None),
         )
     else:
         data = export_tree(tree, loaded.task, chosen, scenario=loaded.name, goal=goal_line)

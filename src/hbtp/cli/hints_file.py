@@ -18,6 +18,7 @@ from hbtp.datasets import read_dataset_file
 from hbtp.datasets.records import Record
 from hbtp.domains import Scenario
 from hbtp.errors import DatasetError, InputError
+from hbtp.files import InputKind, read_text
 from hbtp.llm.parse import hints_from_record, parse_reply
 from hbtp.logic.task import Goal
 from hbtp.planning import Hints, Limits
@@ -43,14 +44,7 @@ def load_hints(source: str, loaded: Scenario, goal: Goal, limits: Limits) -> Hin
     if source == "oracle":
         return oracle_hints(loaded.task, goal, loaded.mutexes, limits)
     path = Path(source)
-    try:
-        data = path.read_bytes()
-    except OSError as error:
-        raise InputError(f"{source}: cannot read hints file: {error.strerror or error}") from None
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as error:
-        raise InputError(f"{source}: the hints file is not UTF-8 text (byte {error.start})") from None
+    text = read_text(path, InputKind.HINTS)
     try:
         records: list[Record] | None = read_dataset_file(path)
         problem: DatasetError | None = None

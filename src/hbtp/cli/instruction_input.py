@@ -16,6 +16,7 @@ from hbtp.cli.goal_input import read_goal
 from hbtp.cli.options import echo_json
 from hbtp.domains import Scenario
 from hbtp.errors import InputError
+from hbtp.files import InputKind
 from hbtp.llm.backends.registry import BackendOptions, make_goal_backend
 from hbtp.pipeline.instruct import GoalChoice, InstructOptions, goal_from_instruction, instruction_pool
 
@@ -35,7 +36,7 @@ def choose_goal(
 ) -> GoalChoice:
     """The goal of the instruction ``text`` (``@FILE`` read) in ``loaded``, or an :class:`InputError`
     (after printing the attempts with ``as_json``) when no proposal is acceptable."""
-    instruction = read_goal(text)
+    instruction = read_goal(text, InputKind.INSTRUCTION)
     llm = make_goal_backend(spec or DEFAULT_INSTRUCTION_BACKEND, loaded, replace(backend, record=backend.record))
     try:
         choice = goal_from_instruction(

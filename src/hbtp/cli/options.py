@@ -19,7 +19,7 @@ from hbtp.domains import Scenario, load_pddl_scenario, load_scenario, scenario_n
 from hbtp.domains.pruned import PrunedWorld
 from hbtp.domains.scenarios import ScenarioOptions, read_mutex_file
 from hbtp.errors import InputError
-from hbtp.files import write_all_atomically
+from hbtp.files import check_output
 from hbtp.llm.backends.registry import BackendOptions
 from hbtp.llm.prompt import RETRIEVALS
 
@@ -132,13 +132,24 @@ scenario_options = option_group(
 )
 
 
+def checked_output(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
+    """An option's output file, refused before any work when hbtp must not write it: an existing
+    target that is not a regular file or is a symbolic link, or a missing folder
+    (:func:`hbtp.files.check_output`). The writers check again when they write."""
+    if value is not None:
+        check_output(Path(value))
+    return value
+
+
+def output_option(*declarations: str, help: str, required: bool = False) -> Callable[[F], F]:
+    """An option naming a file the command writes (``--out FILE``), checked by :func:`checked_output`."""
+    return click.option(
+        *declarations, type=click.Path(dir_okay=False), callback=checked_output, required=required, help=help
+    )
+
+
 def echo_json(data: Any) -> None:
     click.echo(json.dumps(data, indent=1, ensure_ascii=False))
-
-
-def write_files_atomically(files: dict[Path, str]) -> None:
-    """Write every file or none (see :func:`hbtp.files.write_all_atomically`)."""
-    write_all_atomically(dict(files))
 
 
 def comma_choices(text: str, choices: Iterable[str], hint: str, what: str) -> tuple[str, ...]:

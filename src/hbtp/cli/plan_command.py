@@ -27,6 +27,7 @@ from hbtp.cli.options import (
     examples_option,
     feedback_rounds_option,
     option_group,
+    output_option,
     retrieval_option,
     round_time_limit_option,
     scenario_options,
@@ -41,6 +42,7 @@ from hbtp.llm.backends.registry import BackendOptions, auto_backend, make_backen
 from hbtp.llm.pool import example_pool
 from hbtp.llm.prompt import PromptOptions
 from hbtp.logic.task import Goal
+from hbtp.memory import memory_cap
 from hbtp.pipeline import DEFAULT_PROBE_SECONDS, AutoResult, LoopOptions, LoopResult, plan_auto, run_hbtp
 from hbtp.pipeline.instruct import GoalChoice
 from hbtp.pipeline.loop import Progress
@@ -149,7 +151,7 @@ output_options = option_group(
         help="full: every explored condition (acts from more states); path: only the solution path.",
     ),
     click.option("--compact", is_flag=True, help="Merge conditions shared by adjacent branches (same behaviour)."),
-    click.option("-o", "--out", "out_file", type=click.Path(dir_okay=False), help="Write the tree as JSON."),
+    output_option("-o", "--out", "out_file", help="Write the tree as JSON."),
     click.option("--partial", is_flag=True, help="When not solved, still write the partial tree (-o, --export)."),
     export_options,
     click.option("--json", "as_json", is_flag=True, help="Print the result as JSON instead of the tree."),
@@ -230,7 +232,7 @@ llm_options = option_group(
     click.option(
         "--seed", type=int, default=0, show_default=True, help="Seed of the LLM backend (sampling, noisy-oracle)."
     ),
-    click.option("--record", type=click.Path(dir_okay=False), help="Record every LLM exchange to this JSONL file."),
+    output_option("--record", help="Record every LLM exchange to this JSONL file."),
     click.option(
         "--grounding",
         type=click.Choice(["full", "pruned"]),
@@ -277,7 +279,8 @@ def plan_command(
     llm: LlmRequest,
 ) -> int:
     """Plan a behavior tree that reaches GOAL; exit code 0 when solved, 1 when not."""
-    return run_plan(PlanRequest(source, goal, search, outputs, llm, instruction))
+    with memory_cap(search.memory_mb):  # bounds the whole command, from its start
+        return run_plan(PlanRequest(source, goal, search, outputs, llm, instruction))
 
 
 def run_plan(request: PlanRequest) -> int:
@@ -510,7 +513,7 @@ class _Report:
             files[Path(outputs.export_file)] = export_tree(tree, task, chosen, scenario=name, goal=goal_text(self.goal))
         if outputs.out_file:
             # the PDDL files are recorded so that run/verify can reload the scenario
-            pddl = pddl_record(pddl_files(self.request.source), outputs.out_file)
+            pddl = pddl_record(pddl_files(self.request.source), outputs.out_file, warn=True)
             files[Path(outputs.out_file)] = tree_to_json(
                 tree, task, scenario=name, goal=self.goal, complete=result.solved, pddl=pddl
             )

@@ -27,9 +27,10 @@ from hbtp.bt.jsonio import goal_text
 from hbtp.bt.simulate import DEFAULT_MAX_TICKS, Run, simulate, trace_to_jsonl
 from hbtp.bt.verify import verify
 from hbtp.cli.exit_codes import CommandError, ExitCode, command_error
-from hbtp.cli.options import ScenarioSource, echo_json, option_group, scenario_options, write_files_atomically
+from hbtp.cli.options import ScenarioSource, echo_json, option_group, output_option, scenario_options
 from hbtp.cli.tree_input import TreeInput, load_tree_input
 from hbtp.errors import HbtpError, InputError
+from hbtp.files import write_all_atomically
 from hbtp.logic.execution import Disturbance
 from hbtp.logic.task import GoalIds, GroundTask
 from hbtp.runtime import ReplanningRun, ReplanOptions, replanning_runs, replanning_summary, replanning_trace_jsonl
@@ -155,12 +156,11 @@ run_options = option_group(
         type=click.IntRange(1, 65535),
         help="With --engine btcpp: publish the running tree to Groot2 on this port (Groot2's default: 1667).",
     ),
-    click.option(
+    output_option(
         "--btlog",
-        type=click.Path(dir_okay=False),
         help="With --engine btcpp (one run): write BehaviorTree.CPP's FileLogger2 log, which Groot2 replays.",
     ),
-    click.option("--trace", "trace_file", type=click.Path(dir_okay=False), help="Write a tick-by-tick JSONL trace."),
+    output_option("--trace", "trace_file", help="Write a tick-by-tick JSONL trace."),
     click.option("--json", "as_json", is_flag=True, help="Print the result as JSON."),
 )
 
@@ -269,7 +269,7 @@ def _run_replanning(read: TreeInput, tree_file: str, request: RunRequest) -> int
     stats = replanning_summary(base, results, goal)
     if trace_file:
         text = "".join(replanning_trace_jsonl(r, task, run_index=i) for i, r in enumerate(results))
-        write_files_atomically({Path(trace_file): text})
+        write_all_atomically({Path(trace_file): text})
     reached = stats["successes"] == len(results)
     if request.as_json:
         _echo_replanning_json(read, tree_file, request, stats, results)
@@ -324,7 +324,7 @@ def _write_traces(trace_file: str | None, runs: Sequence[Run], task: GroundTask,
     number when ``numbered``."""
     if trace_file:
         text = "".join(trace_to_jsonl(run, task, run_index=i if numbered else None) for i, run in enumerate(runs))
-        write_files_atomically({Path(trace_file): text})
+        write_all_atomically({Path(trace_file): text})
 
 
 def _echo_disturbed(stats: dict[str, Any], base_reached: bool, base: Run, perturb: float, seed: int) -> None:

@@ -43,7 +43,7 @@ def pddl_files(source: ScenarioSource) -> PddlFiles | None:
 def scenario_for(file: TreeFile, source: ScenarioSource) -> Scenario:
     """The scenario a tree file is read with (see the module docstring)."""
     if not source.given and file.pddl is not None:
-        pddl = file.pddl
+        pddl = file.pddl.confined(file.path)
         source = replace(
             source,
             pddl=(str(pddl.domain), str(pddl.problem)),

@@ -10,10 +10,11 @@ from typing import IO, Any, cast
 
 import click
 
-from hbtp.cli.options import echo_json
+from hbtp.cli.options import echo_json, output_option
 from hbtp.datasets import DATASET_SCENARIO
 from hbtp.domains import scenario_names
 from hbtp.errors import InputError
+from hbtp.files import open_output
 from hbtp.validation import COMPARE_TIME_LIMIT, ENGINES, Engine, compare_files, decided, iter_comparisons
 
 
@@ -85,11 +86,7 @@ def _summary_line(label: str, summary: dict[str, Any]) -> str:
 
 def _open_out(path: Path) -> IO[str]:
     """The JSONL file, opened for writing (rows are written as they come, so a long run keeps its rows)."""
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        return path.open("w", encoding="utf-8")
-    except OSError as error:
-        raise InputError(f"cannot write {path}: {error.strerror}") from None
+    return open_output(path)
 
 
 def _rows(
@@ -129,7 +126,7 @@ def _rows(
     metavar="DOMAIN PROBLEM",
     help="Check the problem's :goal in these PDDL files instead (repeatable): Fast Downward reads the files itself.",
 )
-@click.option("-o", "--out", "out_file", type=click.Path(dir_okay=False), help="Write the rows as JSONL.")
+@output_option("-o", "--out", "out_file", help="Write the rows as JSONL.")
 @click.option("--json", "as_json", is_flag=True, help="Print rows and summary as one JSON document.")
 def validate_optimal(
     scenarios: tuple[str, ...],

@@ -14,18 +14,9 @@ import click
 from hbtp.bt.html_view import ViewHeader, read_trace, render_page, view_data
 from hbtp.bt.jsonio import goal_text
 from hbtp.bt.nodes import size
-from hbtp.cli.options import ScenarioSource, scenario_options, write_files_atomically
+from hbtp.cli.options import ScenarioSource, output_option, scenario_options
 from hbtp.cli.tree_input import load_tree_input
-from hbtp.errors import InputError
-
-
-def _read_text(path: str, what: str) -> str:
-    try:
-        return Path(path).read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise InputError(f"{path}: the {what} is not UTF-8 text") from None
-    except OSError as error:
-        raise InputError(f"cannot read the {what} {path}: {error.strerror or error}") from None
+from hbtp.files import InputKind, read_text, write_all_atomically
 
 
 @click.command("view")
@@ -38,7 +29,7 @@ def _read_text(path: str, what: str) -> str:
     type=click.Path(dir_okay=False),
     help="A tick-by-tick JSONL trace of the tree (hbtp run --trace FILE) to step through.",
 )
-@click.option("-o", "--out", "out_file", required=True, type=click.Path(dir_okay=False), help="The HTML file to write.")
+@output_option("-o", "--out", "out_file", required=True, help="The HTML file to write.")
 def view_command(
     tree_file: str, source: ScenarioSource, goal_option: str | None, trace_file: str | None, out_file: str
 ) -> int:
@@ -52,7 +43,7 @@ def view_command(
     nothing is written).
     """
     read = load_tree_input(tree_file, source, goal_option)
-    runs = read_trace(_read_text(trace_file, "trace"), trace_file) if trace_file else []
+    runs = read_trace(read_text(trace_file, InputKind.TRACE), trace_file) if trace_file else []
     header = ViewHeader(
         title=Path(tree_file).name,
         scenario=read.scenario.name,
@@ -60,7 +51,7 @@ def view_command(
         trace=Path(trace_file).name if trace_file else None,
     )
     data = view_data(read.tree, read.scenario.task, runs, header, source=trace_file)
-    write_files_atomically({Path(out_file): render_page(data)})
+    write_all_atomically({Path(out_file): render_page(data)})
     ticks = sum(len(run["ticks"]) for run in data["runs"])
     what = f"{size(read.tree).nodes} nodes"
     if trace_file:

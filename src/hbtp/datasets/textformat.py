@@ -35,7 +35,9 @@ from pathlib import Path
 
 from hbtp.datasets.records import MAX_COST, Record
 from hbtp.datasets.reply import ACTIONS, OBJECTS, PREDICATES, reply_lines
-from hbtp.errors import DatasetError, InputError
+from hbtp.errors import DatasetError, InputError, SourceError
+from hbtp.files import InputKind
+from hbtp.files import read_text as read_file_text
 from hbtp.logic.atoms import parse_conjunction
 
 ENVIRONMENT = "Environment"
@@ -85,11 +87,9 @@ def read_text_file(path: str | Path) -> list[Record]:
 def read_source(path: str | Path) -> str:
     """The UTF-8 text of a file, with :class:`DatasetError` (not ``OSError``) when it cannot be read."""
     try:
-        return Path(path).read_text(encoding="utf-8")
-    except OSError as error:
-        raise DatasetError(f"cannot read dataset file: {error.strerror or error}", str(path)) from None
-    except UnicodeDecodeError as error:
-        raise DatasetError(f"not UTF-8 text: {error.reason} at byte {error.start}", str(path)) from None
+        return read_file_text(path, InputKind.DATASET)
+    except SourceError as error:
+        raise DatasetError(error.message, error.source, error.line, error.column) from None
 
 
 def _blocks(text: str) -> list[list[tuple[int, str]]]:

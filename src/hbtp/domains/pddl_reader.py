@@ -42,7 +42,8 @@ from hbtp.domains.lifted import (
     is_variable,
 )
 from hbtp.domains.sexpr import Expr, SList, Symbol, parse_sexprs
-from hbtp.errors import PddlError
+from hbtp.errors import PddlError, SourceError
+from hbtp.files import InputKind, read_text
 from hbtp.logic.task import did_you_mean
 
 SUPPORTED_REQUIREMENTS = frozenset(
@@ -642,9 +643,8 @@ def read_problem_file(path: str | Path, domain: Domain, deadline: Deadline | Non
 
 
 def _read_text(path: Path) -> str:
+    """A PDDL file's text: a regular file, at most :attr:`InputKind.PDDL`'s cap, UTF-8."""
     try:
-        return path.read_text(encoding="utf-8")
-    except OSError as error:
-        raise PddlError(f"cannot read file: {error.strerror or error}", str(path)) from None
-    except UnicodeDecodeError:
-        raise PddlError("file is not UTF-8 text", str(path)) from None
+        return read_text(path, InputKind.PDDL)
+    except SourceError as error:
+        raise PddlError(error.message, error.source, error.line, error.column) from None

@@ -38,6 +38,7 @@ from hbtp.domains.mutex import Mutexes, infer_mutexes, with_negation_groups
 from hbtp.domains.pddl_reader import read_domain_file, read_problem_file
 from hbtp.domains.quantifiers import expand_formula
 from hbtp.errors import InputError
+from hbtp.files import InputKind, read_text
 from hbtp.logic.atoms import Atom
 from hbtp.logic.negation import with_negations
 from hbtp.logic.task import Goal, GroundTask
@@ -363,12 +364,7 @@ def read_mutex_file(path: str | Path) -> Mapping[str, Sequence[Sequence[str]]]:
     """Read declared mutexes (``groups = [[...]]``, ``nogoods = [[...]]``) from a TOML file."""
     path = Path(path)
     try:
-        with path.open("rb") as handle:
-            data = tomllib.load(handle)
-    except OSError as error:
-        raise InputError(f"{path}: cannot read mutex file: {error.strerror or error}") from None
-    except UnicodeDecodeError as error:
-        raise InputError(f"{path}: not UTF-8 text (byte {error.start}): a mutex file is TOML") from None
+        data = tomllib.loads(read_text(path, InputKind.SETTINGS))
     except tomllib.TOMLDecodeError as error:
         raise InputError(f"{path}: not valid TOML: {error}") from None
     unknown = set(data) - {"groups", "nogoods"}

@@ -28,6 +28,7 @@ from hbtp.domains import cache
 from hbtp.domains.pruned import PrunedWorld
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError
+from hbtp.files import InputKind, read_bytes
 from hbtp.logic.names import names_of
 from hbtp.planning import generate
 from hbtp.planning.generate import Sampling
@@ -53,8 +54,8 @@ def pool_key(world: Scenario | PrunedWorld, settings: PoolSettings) -> str:
     digest = hashlib.sha256(f"{FORMAT}|{__version__}|{settings!r}|{settings.sampling.key()}".encode())
     for path in (world.domain_file, world.problem_file):
         try:
-            digest.update(Path(path).read_bytes())
-        except OSError:
+            digest.update(read_bytes(path, InputKind.PDDL))
+        except InputError:
             digest.update(b"\0")  # a generated problem: the parsed model below still tells it apart
     digest.update(repr(world.pddl).encode())
     names = world.names if isinstance(world, PrunedWorld) else names_of(world.task)

@@ -9,7 +9,8 @@ Two syntaxes are read:
 Both give the same value: a tuple of *terms* (conjunctions of literals, :class:`~hbtp.logic.atoms.Atom`
 with ``negated`` for ``~``), one per disjunct, in the order written, without repeated literals or
 terms. Negations are pushed down to the literals (De Morgan) before the product is taken; a formula
-whose normal form would have more than :data:`MAX_TERMS` terms is refused. What the literals mean
+whose normal form would have more than :data:`MAX_TERMS` terms, or that nests parentheses and
+negations more than :data:`MAX_DEPTH` deep, is refused. What the literals mean
 (unknown names, contradictions, literals that can never hold) is decided against a task by
 :meth:`hbtp.logic.task.GroundTask.resolve_goal`.
 """
@@ -26,6 +27,8 @@ from hbtp.logic.atoms import Atom, parse_atom
 
 #: The most disjuncts a goal may have once in normal form.
 MAX_TERMS = 256
+#: The deepest a goal may nest parentheses and ``not`` (a run of ``~`` counts once).
+MAX_DEPTH = 100
 
 Term = tuple[Atom, ...]
 Dnf = tuple[Term, ...]
@@ -111,6 +114,16 @@ class _Tokens:
             if token:
                 self.items.append((token, match.start(1) if match.group(1) else match.start(2)))
         self.index = 0
+        self.depth = 0
+
+    def enter(self) -> None:
+        """One level deeper (a parenthesis or a negation); past :data:`MAX_DEPTH`, an error."""
+        self.depth += 1
+        if self.depth > MAX_DEPTH:
+            raise self.error(f"nested more than {MAX_DEPTH} deep")
+
+    def leave(self) -> None:
+        self.depth -= 1
 
     def peek(self) -> str | None:
         return self.items[self.index][0] if self.index < len(self.items) else None
@@ -166,14 +179,22 @@ class _InfixReader:
 
     def factor(self) -> _Formula:
         tokens = self.tokens
-        token = tokens.peek()
-        if token == "~":
+        negations = 0
+        while tokens.peek() == "~":  # a run of negations, read without recursion
             tokens.take()
-            return _Op("not", (self.factor(),))
+            negations += 1
+        if negations:
+            tokens.enter()
+            inner = self.factor()
+            tokens.leave()
+            return _Op("not", (inner,)) if negations % 2 else inner
+        token = tokens.peek()
         if token == "(":
             tokens.take()
+            tokens.enter()
             inner = self.expression()
             tokens.expect(")")
+            tokens.leave()
             return inner
         if token is None or not token[0].isalpha():
             raise tokens.error("expected a literal" if token is None else f"unexpected {token!r}")
@@ -209,6 +230,13 @@ class _PddlReader:
     def formula(self) -> _Formula:
         tokens = self.tokens
         tokens.expect("(")
+        tokens.enter()
+        formula = self._inside()
+        tokens.leave()
+        return formula
+
+    def _inside(self) -> _Formula:
+        tokens = self.tokens
         head = tokens.take()
         if not head[0].isalpha():
             raise tokens.error(f"unexpected {head!r}")
@@ -238,4 +266,4 @@ class _PddlReader:
         self.tokens.take()
 
 
-__all__ = ["MAX_TERMS", "Dnf", "Term", "format_goal", "parse_goal", "to_dnf"]
+__all__ = ["MAX_DEPTH", "MAX_TERMS", "Dnf", "Term", "format_goal", "parse_goal", "to_dnf"]

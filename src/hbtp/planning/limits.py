@@ -10,15 +10,13 @@ and in earlier searches of the same command (``--hints oracle``) is charged to t
 from __future__ import annotations
 
 import dataclasses
-import os
 import time
 from dataclasses import dataclass
 
 from hbtp.deadline import Deadline
 from hbtp.errors import InputError
+from hbtp.memory import resident_mb
 from hbtp.planning.result import Status
-
-_PAGE = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
 
 
 @dataclass(frozen=True)
@@ -44,16 +42,7 @@ class Limits:
         of a command (loading, heuristic set-up, every search) so that ``time_s`` bounds all of it."""
         if self.time_s is None:
             return self
-        return dataclasses.replace(self, deadline=Deadline(self.time_s))
-
-
-def resident_mb() -> float:
-    """Current resident set size of this process in MB (Linux /proc; 0 where unavailable)."""
-    try:
-        with open("/proc/self/statm", encoding="ascii") as handle:
-            return int(handle.read().split()[1]) * _PAGE / 1e6
-    except (OSError, ValueError, IndexError):
-        return 0.0
+        return dataclasses.replace(self, deadline=Deadline(self.time_s, memory_mb=self.memory_mb))
 
 
 class LimitWatch:
@@ -73,7 +62,7 @@ class LimitWatch:
         """The time limit of this run as a :class:`Deadline` (for the heuristic set-up)."""
         if self.deadline is None or self.seconds is None:
             return None
-        return Deadline(self.seconds, self.deadline - self.seconds)
+        return Deadline(self.seconds, self.deadline - self.seconds, self.limits.memory_mb)
 
     def timed_out(self) -> bool:
         return self.deadline is not None and time.perf_counter() >= self.deadline

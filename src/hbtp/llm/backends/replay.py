@@ -11,7 +11,8 @@ import json
 import time
 from pathlib import Path
 
-from hbtp.errors import BackendError
+from hbtp.errors import BackendError, InputError
+from hbtp.files import InputKind, open_output, read_text
 from hbtp.llm.backend import Backend, PromptStyle, Reply, Request
 
 
@@ -19,16 +20,10 @@ def _read(path: Path) -> dict[str, str]:
     table: dict[str, str] = {}
     if not path.exists():
         return table
-    if path.is_dir():
-        raise BackendError(f"replay file {path} is a directory; give a JSONL file written by --record")
     try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as error:
-        raise BackendError(
-            f"replay file {path} is not UTF-8 text (byte {error.start}); give a JSONL file written by --record"
-        ) from None
-    except OSError as error:
-        raise BackendError(f"cannot read the replay file {path}: {error.strerror or error}") from None
+        text = read_text(path, InputKind.RECORD)
+    except InputError as error:
+        raise BackendError(f"{error}; give a JSONL file written by --record") from None
     for number, line in enumerate(text.splitlines(), 1):
         if not line.strip():
             continue
@@ -90,9 +85,10 @@ class RecordingBackend:
 
     def _append(self, line: str) -> None:
         try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            with self.path.open("a", encoding="utf-8") as handle:
+            with open_output(self.path, append=True) as handle:
                 handle.write(line)
+        except InputError as error:
+            raise BackendError(f"{error}; give a writable path to --record") from None
         except OSError as error:
             raise BackendError(
                 f"cannot write the record file {self.path}: {error.strerror or error}; give a writable path to --record"
