@@ -351,3 +351,20 @@ def relevant_conditions(task: GroundTask, seed: int, count: int = 12) -> tuple[f
     relevant = task.relevant_to(goal)
     atoms = sorted(set(goal).union(*(task.actions[i].pre for i in relevant)))
     return relevant, [frozenset(rng.sample(atoms, rng.randint(1, min(5, len(atoms))))) for _ in range(count)]
+
+
+def cli(capsys: Any, *argv: str) -> tuple[int, str, str]:
+    """``hbtp ARGV`` in this process: its exit code, standard output and standard error."""
+    from hbtp.cli import main
+
+    code = main(list(argv))
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def one_error_line(err: str) -> str:
+    """The one line of an error report (asserted to be the only line, with hbtp's prefix)."""
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1, err
+    assert lines[0].startswith("hbtp: error: "), err
+    return lines[0]

@@ -31,22 +31,11 @@ from hbtp.files import InputKind, open_output, read_bytes, read_text, write_all_
 from hbtp.llm.backend import Request
 from hbtp.llm.backends.oracle import OracleBackend
 from hbtp.llm.backends.replay import RecordingBackend
+from helpers import cli as run
+from helpers import one_error_line
 
 GOAL = "On_Coffee_Table1"
 SECRET = "root:x:0:0:a secret line that must never be echoed"
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main(list(argv))
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
-
-
-def one_error_line(err: str) -> str:
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert len(lines) == 1, err
-    assert lines[0].startswith("hbtp: error: "), err
-    return lines[0]
 
 
 # ----------------------------------------------------------------------------- targets

@@ -443,10 +443,18 @@ def test_file_errors_name_the_file(tmp_path: Path) -> None:
     assert str(info.value).startswith(f"{problem_file}:4:")
 
 
-@pytest.mark.parametrize("text", ["", "; only a comment", "(define (domain a)) (define (domain b))"])
-def test_exactly_one_define_form(text: str) -> None:
-    with pytest.raises(PddlError, match="exactly one"):
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("", "<domain>:1:1: the file is empty"),
+        ("; only a comment", "<domain>:1:1: the file holds only comments"),
+        ("(define (domain a)) (define (domain b))", "<domain>:1:21: expected exactly one (define ...) form"),
+    ],
+)
+def test_exactly_one_define_form(text: str, message: str) -> None:
+    with pytest.raises(PddlError) as info:
         read_domain(text)
+    assert str(info.value).startswith(message)
 
 
 def test_a_utf8_byte_order_mark_is_skipped(tmp_path: Path) -> None:

@@ -14,6 +14,9 @@ from dataclasses import dataclass, field
 from hbtp.errors import InputError, PlanningError
 from hbtp.memory import MemoryLimitReached, resident_mb
 
+#: Seconds a command may take when ``-t`` is not given (``hbtp plan``, ``hbtp ground``).
+DEFAULT_TIME_LIMIT = 60.0
+
 
 class TimeLimitReached(PlanningError):
     """The time limit passed before a phase (grounding, mutex inference, heuristic set-up) was done."""

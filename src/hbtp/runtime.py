@@ -18,9 +18,10 @@ Two ways to run it:
 * on a robot (:class:`Runtime`): the user gives an implementation per action (a callable returning
   ``"success"``, ``"failure"`` or ``"running"``, or a :class:`NodeStatus`) and an observer returning
   the literals that hold now. Each tick observes, ticks the tree, and calls the running action; an
-  action that fails ``max_failures`` times in a row is left out of the next plan. A callback that
-  raises or answers garbage counts as a failure (logged); one that does not return within
-  ``tick_timeout_s`` ends the run with :class:`RuntimeFailure`.
+  action that fails ``max_failures`` times in a row is left out of the next plan. An action that
+  raises or answers garbage counts as a failure (logged); an observer that raises or answers
+  literals that cannot be read ends the run with :class:`RuntimeFailure`, as does an action or an
+  observer that does not return within ``tick_timeout_s`` (a positive, finite number).
 
 Re-planning from a state uses the proved mutexes only when the state satisfies them (a state that
 breaks an invariant, which no action can cause, is planned from without mutex pruning).
@@ -31,6 +32,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import logging
+import math
 import statistics
 import threading
 import time
@@ -338,6 +340,10 @@ class Runtime:
         max_failures: int = 3,
         tick_timeout_s: float = 10.0,
     ) -> None:
+        if not isinstance(max_failures, int) or isinstance(max_failures, bool) or max_failures < 1:
+            raise InputError(f"max_failures must be a whole number of at least 1, not {max_failures!r}")
+        if not isinstance(tick_timeout_s, (int, float)) or not (0 < tick_timeout_s < math.inf):
+            raise InputError(f"tick_timeout_s must be a positive, finite number of seconds, not {tick_timeout_s!r}")
         scenario, self.goal = scenario.resolve_goal(goal)
         task = scenario.task
         self.task = task
@@ -351,6 +357,8 @@ class Runtime:
 
     def run(self, max_ticks: int = 1000) -> RuntimeReport:
         """Tick until the goal holds, the tree fails for good, or ``max_ticks`` ticks."""
+        if not isinstance(max_ticks, int) or isinstance(max_ticks, bool) or max_ticks < 1:
+            raise InputError(f"max_ticks must be a whole number of at least 1, not {max_ticks!r}")
         state = self._observed()
         replanner = Replanner(self.scenario, self.goal, self.tree, self.options)
         if self.tree is None and not replanner.replan(state, "the first plan, from the observed state"):
@@ -387,17 +395,19 @@ class Runtime:
         return None if action is None else self.task.actions[action].name
 
     def _observed(self) -> State:
-        try:
-            literals = list(self.observe())
-        except Exception as error:  # the user's code: any failure ends the run with its message
-            raise RuntimeFailure(f"the state observer failed: {type(error).__name__}: {error}") from error
+        def observe() -> list[str]:  # in the worker: the literals as plain text
+            return [_text(literal) for literal in self.observe()]
+
+        answer = _bounded(observe, (), self.tick_timeout_s, "the state observer")
+        if isinstance(answer, Exception):  # the user's code: any failure ends the run with its message
+            raise RuntimeFailure(f"the state observer failed: {type(answer).__name__}: {_shown(answer)}") from answer
         ids: set[int] = set()
         unknown: list[str] = []
-        for literal in literals:
+        for literal in answer:
             try:
-                ids.add(self.task.atom_id(str(literal)))
+                ids.add(self.task.atom_id(literal))
             except InputError:
-                unknown.append(str(literal))
+                unknown.append(literal)
         if unknown:
             raise RuntimeFailure(
                 f"the state observer returned literal(s) the domain does not have: {', '.join(unknown[:5])}"
@@ -409,35 +419,63 @@ class Runtime:
         running counts as a failure."""
         ground = self.task.actions[action]
         callback, args = self.callbacks[action]
-        box: list[Any] = []
-
-        def target() -> None:
-            try:
-                box.append(callback(*args))
-            except Exception as error:  # the user's code: a failure of the action, logged
-                box.append(error)
-
-        worker = threading.Thread(target=target, name=f"hbtp-action-{ground.name}", daemon=True)
-        worker.start()
-        worker.join(self.tick_timeout_s)
-        if worker.is_alive():
-            raise RuntimeFailure(f"action {ground.name} did not return within {self.tick_timeout_s:g} s")
-        answer = box[0] if box else None
-        status = _status(answer)
-        if status is None:
-            log.warning("action %s answered %r: counted as a failure", ground.name, answer)
+        answer: NodeStatus | str | Exception = _bounded(
+            lambda: _status(callback(*args)), (), self.tick_timeout_s, f"action {ground.name}"
+        )
+        if isinstance(answer, Exception):  # a failure of the action, logged
+            log.warning("action %s raised %s: counted as a failure", ground.name, _shown(answer))
             return NodeStatus.FAILURE
-        return status
+        if isinstance(answer, str):
+            log.warning("action %s answered %s: counted as a failure", ground.name, answer)
+            return NodeStatus.FAILURE
+        return answer
 
 
-def _status(answer: Any) -> NodeStatus | None:
+def _bounded(function: Callable[..., Any], args: tuple[Any, ...], timeout: float, what: str) -> Any:
+    """``function(*args)`` in a worker thread, waited for ``timeout`` seconds: its value, or the
+    exception it raised; :class:`RuntimeFailure` when it has not returned by then (the thread is
+    left to finish on its own: Python cannot stop it)."""
+    box: list[Any] = []
+
+    def target() -> None:
+        try:
+            box.append(function(*args))
+        except Exception as error:  # the user's code
+            box.append(error)
+
+    worker = threading.Thread(target=target, name=f"hbtp-{what}", daemon=True)
+    worker.start()
+    worker.join(timeout)
+    if worker.is_alive() or not box:
+        raise RuntimeFailure(f"{what} did not return within {timeout:g} s")
+    return box[0]
+
+
+def _text(literal: Any) -> str:
+    """An observed literal as text (a ``str`` subclass read as the plain string it holds)."""
+    return str.__str__(literal) if isinstance(literal, str) else str(literal)
+
+
+def _shown(value: Any) -> str:
+    """``repr(value)`` for a message, or its type when even that fails (the user's objects)."""
+    try:
+        text = repr(value)
+    except Exception:
+        return f"<{type(value).__name__}>"
+    return text if len(text) <= 200 else text[:200] + "..."
+
+
+def _status(answer: Any) -> NodeStatus | str:
+    """An action's answer as a status, or the answer shown (:func:`_shown`) when it is none."""
     if isinstance(answer, NodeStatus):
         return answer
     if isinstance(answer, bool):
         return NodeStatus.SUCCESS if answer else NodeStatus.FAILURE
     if isinstance(answer, str):
-        return _STATUS.get(answer.strip().lower())
-    return None
+        status = _STATUS.get(str.__str__(answer).strip().lower())
+        if status is not None:
+            return status
+    return _shown(answer)
 
 
 def _callbacks(

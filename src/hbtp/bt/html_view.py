@@ -96,6 +96,9 @@ def read_trace(text: str, source: str = "<trace>") -> list[TraceRun]:
         if "replan" in record:
             if not isinstance(record["replan"], dict):
                 raise InputError(f"{where}: replan must be an object")
+            tick = record["replan"].get("tick")
+            if tick is not None and (_integer(tick) is None or tick < 1):
+                raise InputError(f"{where}: replan.tick must be a whole number of at least 1, not {tick!r}")
             run.replans.append((line_number, record["replan"], len(run.ticks)))
         elif "end" in record:
             run.end = record

@@ -20,7 +20,7 @@ import json
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-from hbtp.bt.nodes import MAX_TREE_DEPTH, Action, Condition, Fallback, Node, Sequence
+from hbtp.bt.nodes import MAX_TREE_DEPTH, MAX_TREE_NODES, Action, Condition, Fallback, Node, Sequence
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom, parse_atom
 from hbtp.logic.goals import parse_goal
@@ -130,7 +130,24 @@ def json_document(text: str, source: str = "<tree>") -> dict[str, Any]:
         raise InputError(f'{source}: not an hbtp tree (expected "format": "{FORMAT}")')
     if document.get("version") != VERSION:
         raise InputError(f"{source}: unsupported tree version {document.get('version')!r}")
+    if _more_nodes_than(document.get("root"), MAX_TREE_NODES):
+        raise InputError(f"{source}: the tree has more than {MAX_TREE_NODES:,} nodes, the limit hbtp reads")
     return document
+
+
+def _more_nodes_than(root: Any, limit: int) -> bool:
+    """Whether the JSON tree under ``root`` has more than ``limit`` nodes (counted without recursion,
+    stopping at the limit)."""
+    pending, count = [root], 0
+    while pending:
+        node = pending.pop()
+        count += 1
+        if count > limit:
+            return True
+        children = node.get("children") if isinstance(node, dict) else None
+        if isinstance(children, list):
+            pending.extend(children)
+    return False
 
 
 def tree_from_json(text: str, task: GroundTask, source: str = "<tree>") -> tuple[Node, dict[str, Any]]:

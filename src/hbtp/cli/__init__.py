@@ -10,10 +10,12 @@ does not change the exit code: the rest of the output is discarded.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import logging
 import os
 import sys
+import time
 import traceback
 from typing import IO, Any, cast
 
@@ -24,7 +26,7 @@ from hbtp.cli.bench_commands import bench
 from hbtp.cli.dataset_commands import dataset
 from hbtp.cli.domain_commands import export_pddl, ground, scenarios
 from hbtp.cli.examples_command import examples
-from hbtp.cli.exit_codes import ExitCode, error_line, exit_code_for
+from hbtp.cli.exit_codes import ExitCode, error_line, exit_code_for, shorten
 from hbtp.cli.export_command import export_command
 from hbtp.cli.plan_command import plan_command
 from hbtp.cli.robustness_command import robustness
@@ -41,14 +43,58 @@ EXIT_OK, EXIT_NOT_SOLVED, EXIT_INPUT, EXIT_INTERNAL = (
 )
 
 
+#: Seconds from a command's start during which its warnings are held (see :class:`_CommandLog`).
+HOLD_WARNINGS_S = 2.0
+
+
+class _CommandLog(logging.Handler):
+    """The log of one command on standard error, echoed input shortened.
+
+    Without ``-v``, the warnings of the command's first :data:`HOLD_WARNINGS_S` seconds are held:
+    when the command then fails (bad input is found at once), its error is the only line, ending
+    with how many warnings ``-v`` shows; otherwise they are written once the hold is over or the
+    command ends. Later records are written as they come."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.setFormatter(logging.Formatter("%(levelname)s %(name)s: %(message)s"))
+        self.until = time.monotonic() + HOLD_WARNINGS_S
+        self.held: list[logging.LogRecord] | None = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if self.held is not None and time.monotonic() < self.until:
+            self.held.append(record)
+            return
+        self.write_held()
+        self._write(record)
+
+    def _write(self, record: logging.LogRecord) -> None:
+        with contextlib.suppress(OSError, ValueError):  # a closed standard error
+            sys.stderr.write(shorten(self.format(record)) + "\n")
+
+    def write_held(self) -> None:
+        """Write the held records (and hold no more)."""
+        held, self.held = self.held or [], None
+        for record in held:
+            self._write(record)
+
+    def drop(self) -> int:
+        """Forget the held records (an error is being reported instead); how many there were."""
+        held, self.held = self.held or [], None
+        return len(held)
+
+
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="hbtp")
 @click.option("-v", "--verbose", count=True, help="More log output on stderr (-vv for debug).")
 @click.option("--debug", is_flag=True, help="Show tracebacks of errors.")
-def cli(verbose: int, debug: bool) -> None:
+@click.pass_context
+def cli(context: click.Context, verbose: int, debug: bool) -> None:
     """hbtp: plan behavior trees that provably reach a goal, guided by LLM reasoning."""
     level = logging.WARNING if verbose == 0 else logging.INFO if verbose == 1 else logging.DEBUG
-    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
+    logging.getLogger().setLevel(level)
+    if verbose and isinstance(context.obj, _CommandLog):
+        context.obj.write_held()  # with -v, everything as it comes
 
 
 cli.add_command(scenarios)
@@ -111,35 +157,41 @@ def _is_broken_pipe(error: OSError) -> bool:
     return isinstance(error, BrokenPipeError) or error.errno == errno.EPIPE
 
 
-def _report_click_error(error: click.ClickException) -> int:
-    """The one ``hbtp: error:`` line, ending for a usage error with where the help is; the help
-    for a bare ``hbtp`` (exit code 2, as click does)."""
-    if isinstance(error, click.exceptions.NoArgsIsHelpError):
-        error.show()
-        return ExitCode.INPUT
+def _click_message(error: click.ClickException) -> str:
+    """Click's message, ending for a usage error with where the help is."""
     message = error.format_message()
     if isinstance(error, click.UsageError) and error.ctx is not None:
         help_option = next(iter(error.ctx.help_option_names), None)
         if help_option is not None and error.ctx.command.get_help_option(error.ctx) is not None:
             message += f" (see '{error.ctx.command_path} {help_option}')"
-    click.echo(error_line(message), err=True)
-    return error.exit_code if error.exit_code in (ExitCode.NOT_SOLVED, ExitCode.INPUT) else ExitCode.INPUT
+    return message
 
 
-def _run(args: list[str], debug: bool) -> int:
+def _run(args: list[str], debug: bool, command_log: _CommandLog) -> int:
+    """The command's exit code; an error is reported as its one line (see :class:`_CommandLog`)."""
+
+    def report(message: str) -> None:
+        held = command_log.drop()
+        note = f" ({held} warning{'s' if held > 1 else ''} before it: -v shows {'them' if held > 1 else 'it'})"
+        click.echo(error_line(message + (note if held else "")), err=True)
+
     try:
-        result = cli.main(args=args, prog_name="hbtp", standalone_mode=False)
+        result = cli.main(args=args, prog_name="hbtp", standalone_mode=False, obj=command_log)
     except click.exceptions.Exit as stop:
         return int(stop.exit_code)
+    except click.exceptions.NoArgsIsHelpError as error:  # a bare `hbtp`: the help, exit code 2 as click does
+        error.show()
+        return ExitCode.INPUT
     except click.ClickException as error:
-        return _report_click_error(error)
+        report(_click_message(error))
+        return error.exit_code if error.exit_code in (ExitCode.NOT_SOLVED, ExitCode.INPUT) else ExitCode.INPUT
     except click.Abort:
-        click.echo(error_line("aborted"), err=True)
+        report("aborted")
         return ExitCode.INPUT
     except HbtpError as error:
         if debug:
             traceback.print_exc()
-        click.echo(error_line(str(error)), err=True)
+        report(str(error))
         return exit_code_for(error)
     except KeyboardInterrupt:
         click.echo("hbtp: interrupted", err=True)
@@ -147,9 +199,7 @@ def _run(args: list[str], debug: bool) -> int:
     except Exception as error:  # a bug: say so in one line unless --debug
         if debug:
             traceback.print_exc()
-        click.echo(
-            error_line(f"internal error: {type(error).__name__}: {error} (run with --debug for details)"), err=True
-        )
+        report(f"internal error: {type(error).__name__}: {error} (run with --debug for details)")
         return ExitCode.INTERNAL
     return result if isinstance(result, int) else ExitCode.OK
 
@@ -160,10 +210,16 @@ def main(argv: list[str] | None = None) -> int:
     original = sys.stdout
     output = cast(IO[str], _PipeSafeOutput(original))
     sys.stdout = output
+    root = logging.getLogger()
+    command_log, level = _CommandLog(), root.level
+    root.addHandler(command_log)
     try:
-        code = _run(args, "--debug" in args)
+        code = _run(args, "--debug" in args, command_log)
         output.flush()
     finally:
+        command_log.write_held()
+        root.removeHandler(command_log)
+        root.setLevel(level)
         if sys.stdout is output:
             sys.stdout = original
     return int(code)

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import click
 
-from hbtp.cli.options import ScenarioSource, echo_json, scenario_options
+from hbtp.cli.options import ScenarioSource, echo_json, scenario_options, time_limit_option
+from hbtp.deadline import Deadline
 from hbtp.domains import Scenario, load_scenario, scenario_names, write_domain, write_grounded, write_problem
 from hbtp.domains.lifted import And, AtomFormula
 from hbtp.errors import InputError
@@ -35,14 +36,11 @@ def scenarios(as_json: bool) -> int:
 @scenario_options
 @click.option("--names", is_flag=True, help="Print one grounded action name per line (Walk(apple)).")
 @click.option("--json", "as_json", is_flag=True, help="Print every grounded action with pre/add/del/cost.")
-def ground(
-    source: ScenarioSource,
-    names: bool,
-    as_json: bool,
-) -> int:
+@time_limit_option
+def ground(source: ScenarioSource, names: bool, as_json: bool, time_limit: float) -> int:
     """Ground a scenario or your PDDL files and show the result (with the actions relevant to the
     problem's :goal when it has one: those a search of it uses)."""
-    loaded = source.load()
+    loaded = source.load(deadline=Deadline(time_limit))
     task = loaded.task
     if names:
         click.echo("\n".join(a.name for a in task.actions))

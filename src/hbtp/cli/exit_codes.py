@@ -19,6 +19,7 @@ Every error is reported on standard error as one line that starts with :data:`ER
 from __future__ import annotations
 
 import enum
+import re
 from typing import IO, Any
 
 import click
@@ -37,10 +38,26 @@ class ExitCode(enum.IntEnum):
     INTERRUPTED = 130
 
 
+#: The longest run of input (a name, a token: characters without white space) a message echoes.
+MAX_ECHO = 200
+#: The longest message a line carries.
+MAX_LINE = 2_000
+_LONG_RUN = re.compile(rf"\S{{{MAX_ECHO + 1},}}")
+
+
+def shorten(text: str) -> str:
+    """``text`` with every run of more than :data:`MAX_ECHO` non-space characters cut (and its
+    length said), and cut after :data:`MAX_LINE` characters: input echoed in full once made a
+    2 MB error line."""
+    text = _LONG_RUN.sub(lambda run: f"{run.group()[:MAX_ECHO]}... ({len(run.group()):,} characters)", text)
+    return text if len(text) <= MAX_LINE else f"{text[:MAX_LINE]}... ({len(text):,} characters)"
+
+
 def error_line(message: str) -> str:
-    """``hbtp: error: message`` on one line (a multi-line message is joined with ``; ``)."""
+    """``hbtp: error: message`` on one line (a multi-line message is joined with ``; ``), echoed
+    input shortened (:func:`shorten`)."""
     parts = [part.strip() for part in str(message).splitlines() if part.strip()]
-    return ERROR_PREFIX + "; ".join(parts)
+    return ERROR_PREFIX + shorten("; ".join(parts))
 
 
 def exit_code_for(error: HbtpError) -> ExitCode:

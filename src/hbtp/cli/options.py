@@ -14,7 +14,7 @@ from typing import Any, TypeVar, cast
 import click
 
 from hbtp.bench.runner import EXECUTORS, Execution, ExecutorName
-from hbtp.deadline import Deadline
+from hbtp.deadline import DEFAULT_TIME_LIMIT, Deadline
 from hbtp.domains import Scenario, load_pddl_scenario, load_scenario, scenario_names
 from hbtp.domains.pruned import PrunedWorld
 from hbtp.domains.scenarios import ScenarioOptions, read_mutex_file
@@ -146,6 +146,17 @@ def output_option(*declarations: str, help: str, required: bool = False) -> Call
     return click.option(
         *declarations, type=click.Path(dir_okay=False), callback=checked_output, required=required, help=help
     )
+
+
+#: ``-t SECONDS``: one limit for the whole command (loading, grounding, every LLM call and search).
+time_limit_option = click.option(
+    "-t",
+    "--time-limit",
+    type=float,
+    default=DEFAULT_TIME_LIMIT,
+    show_default=True,
+    help="Seconds for the whole command.",
+)
 
 
 def echo_json(data: Any) -> None:

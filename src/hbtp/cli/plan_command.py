@@ -31,6 +31,7 @@ from hbtp.cli.options import (
     retrieval_option,
     round_time_limit_option,
     scenario_options,
+    time_limit_option,
 )
 from hbtp.cli.tree_input import pddl_files
 from hbtp.domains import Scenario
@@ -104,7 +105,7 @@ search_options = option_group(
     click.option(
         "--alpha", type=float, default=10_000, show_default=True, help="HBTP-O discount divisor, from 1 to 10^9."
     ),
-    click.option("-t", "--time-limit", type=float, default=60.0, show_default=True, help="Seconds."),
+    time_limit_option,
     click.option("--max-expansions", type=int, help="Stop after this many expanded conditions."),
     click.option(
         "--robust",

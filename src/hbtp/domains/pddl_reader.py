@@ -64,6 +64,7 @@ SUPPORTED_REQUIREMENTS = frozenset(
 #: A whole number as PDDL writes it: ASCII digits with an optional sign (Python's ``int`` would also
 #: take ``1_0``, ``٣`` or surrounding spaces).
 _WHOLE_NUMBER = re.compile(r"[+-]?[0-9]+")
+_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_\-]*\Z")  # what goals and trees can write and read back
 UNSUPPORTED_SECTIONS = {
     ":derived": "derived predicates",
     ":durative-action": "durative actions",
@@ -105,11 +106,24 @@ class _Reader:
             raise self.fail(f"expected {what}, found a list", expr)
         return expr
 
+    def expect_name(self, expr: Expr, what: str) -> Symbol:
+        """A symbol that names something hbtp writes into goals and trees and reads back: a letter,
+        then letters, digits, ``-`` or ``_`` (``?`` first for a variable), as PDDL defines names."""
+        symbol = self.expect_symbol(expr, what)
+        if not _NAME.match(symbol.text.removeprefix("?")):
+            shown = symbol.text if len(symbol.text) <= 60 else symbol.text[:60] + "..."
+            raise self.fail(
+                f"{shown!r} is not a PDDL name (a letter, then letters, digits, '-' or '_'): {what}", symbol
+            )
+        return symbol
+
     def define(self, text: str, kind: str) -> tuple[str, list[Expr], SList]:
         exprs = parse_sexprs(text, self.source, self.deadline)
+        if not exprs:
+            what = "is empty" if not text.strip() else "holds only comments"
+            raise PddlError(f"the file {what}: expected (define ({kind} NAME) ...)", self.source, 1, 1)
         if len(exprs) != 1:
-            where = exprs[1] if len(exprs) > 1 else None
-            raise self.fail("expected exactly one (define ...) form", where)
+            raise self.fail("expected exactly one (define ...) form", exprs[1])
         top = self.expect_list(exprs[0], "(define ...)")
         if top.head() != "define" or len(top.items) < 2:
             raise self.fail("expected (define ...)", top)
@@ -152,7 +166,7 @@ class _Reader:
                 pending = []
                 index += 2
                 continue
-            symbol = self.expect_symbol(item, "a name")
+            symbol = self.expect_name(item, "a name")
             if variables != is_variable(symbol.text):
                 kind = "a variable (?x)" if variables else "a name without '?'"
                 raise self.fail(f"expected {kind}, found {symbol.text!r}", symbol)
@@ -459,7 +473,7 @@ class _DomainSections:
     def read_predicates(self, reader: _Reader, node: SList) -> None:
         for item in node.items[1:]:
             decl = reader.expect_list(item, "(predicate ?args)")
-            pname = reader.expect_symbol(decl.items[0], "a predicate name").text if decl.items else ""
+            pname = reader.expect_name(decl.items[0], "a predicate name").text if decl.items else ""
             if not pname:
                 raise reader.fail("empty predicate declaration", decl)
             if pname.lower() in self.predicate_keys:
@@ -481,7 +495,7 @@ def _read_functions(reader: _Reader, node: SList) -> dict[str, tuple[TypedName, 
             index += 2
             continue
         decl = reader.expect_list(item, "(function ?args)")
-        fname = reader.expect_symbol(decl.items[0], "a function name").text if decl.items else ""
+        fname = reader.expect_name(decl.items[0], "a function name").text if decl.items else ""
         if not fname:
             raise reader.fail("empty function declaration", decl)
         functions[fname] = tuple(reader.typed_list(decl.items[1:], variables=True, keep_twice=True))
@@ -495,7 +509,7 @@ def _check_type_cycles(reader: _Reader, types: dict[str, str]) -> None:
         current = types.get(start)
         while current is not None and current != OBJECT_TYPE:
             if current in seen:
-                raise reader.fail(f"type {start!r} is its own ancestor", None)
+                raise reader.fail(f"type {start!r} is its own ancestor", reader.type_uses.get(start))
             seen.add(current)
             current = types.get(current)
 
@@ -503,7 +517,7 @@ def _check_type_cycles(reader: _Reader, types: dict[str, str]) -> None:
 def _read_action(reader: _Reader, node: SList, scope: _Scope, declared_types: set[str]) -> ActionSchema:
     if len(node.items) < 2:
         raise reader.fail("(:action NAME ...) needs a name", node)
-    name = reader.expect_symbol(node.items[1], "an action name").text
+    name = reader.expect_name(node.items[1], "an action name").text
     fields: dict[str, Expr] = {}
     rest = node.items[2:]
     if len(rest) % 2:

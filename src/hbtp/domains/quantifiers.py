@@ -120,7 +120,8 @@ def expand_domain(domain: Domain, objects_of: ObjectsOf) -> Domain:
     actions: list[ActionSchema] = []
     changed = False
     for schema in domain.actions:
-        what = f"action {schema.name!r}"
+        where = f"{domain.source}:{schema.line}:{schema.column}: " if domain.source and schema.line else ""
+        what = f"{where}action {schema.name!r}"
         precondition = expand_formula(schema.precondition, objects_of, f"{what}: the precondition")
         effect = _expand_effect(schema.effect, objects_of, f"{what}: a when condition")
         if precondition is not schema.precondition or effect != schema.effect:

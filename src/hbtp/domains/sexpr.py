@@ -72,6 +72,10 @@ def parse_sexprs(text: str, source: str = "<string>", deadline: Deadline | None 
     top: list[Expr] = []
     if text.startswith(_BOM):
         text = text[1:]
+    nul = text.find("\0")
+    if nul >= 0:
+        where = text.count("\n", 0, nul) + 1, nul - text.rfind("\n", 0, nul)
+        raise PddlError("a NUL byte: not a text file", source, *where)
     current = top
     for line_number, line in enumerate(text.split("\n"), start=1):
         if deadline is not None and line_number & 1023 == 0:

@@ -20,6 +20,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from itertools import chain, product
 from typing import ClassVar
 
 from hbtp.errors import InputError
@@ -88,19 +89,18 @@ def _dnf(formula: _Formula) -> list[Term]:
     if isinstance(formula, Atom):
         return [(formula,)]
     parts = [_dnf(part) for part in formula.parts]
-    if formula.kind == "or":
-        terms = [term for part in parts for term in part]
-    else:
-        terms = [()]
+    count = sum(map(len, parts)) if formula.kind == "or" else 1
+    if formula.kind == "and":
         for part in parts:
-            if len(terms) * len(part) > MAX_TERMS:
+            count *= len(part)
+            if count > MAX_TERMS:
                 break
-            terms = [left + right for left in terms for right in part]
-        else:
-            return terms
-    if len(terms) > MAX_TERMS or formula.kind == "and":
+    if count > MAX_TERMS:
         raise InputError(f"the goal has more than {MAX_TERMS} alternatives once in disjunctive normal form")
-    return terms
+    if formula.kind == "or":
+        return [term for part in parts for term in part]
+    # each term joined once from its pieces: linear in the goal's length
+    return [tuple(chain.from_iterable(pieces)) for pieces in product(*parts)]
 
 
 class _Tokens:
