@@ -67,7 +67,8 @@ def test_internal_errors_carry_the_prefix(monkeypatch: pytest.MonkeyPatch, capsy
     def boom() -> None:
         raise RuntimeError("a bug")
 
-    group = click.Group(name="hbtp", commands={**hbtp.cli.cli.commands, "boom": boom}, params=hbtp.cli.cli.params)
+    commands = {**hbtp.cli.cli.loaded_commands(), "boom": boom}
+    group = click.Group(name="hbtp", commands=commands, params=hbtp.cli.cli.params)
     monkeypatch.setattr(hbtp.cli, "cli", group)
     assert main(["boom"]) == EXIT_INTERNAL
     assert (

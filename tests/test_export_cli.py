@@ -30,7 +30,7 @@ def registered(monkeypatch: pytest.MonkeyPatch) -> None:
     """``main`` with ``export`` registered on a fresh group (hbtp.cli itself is left as it is)."""
     group = click.Group(
         name="hbtp",
-        commands={**hbtp.cli.cli.commands, "export": export_command},
+        commands={**hbtp.cli.cli.loaded_commands(), "export": export_command},
         params=hbtp.cli.cli.params,
         callback=hbtp.cli.cli.callback,
         context_settings=hbtp.cli.cli.context_settings,

@@ -22,18 +22,27 @@ from typing import IO, Any, cast
 import click
 
 from hbtp import __version__
-from hbtp.cli.bench_commands import bench
-from hbtp.cli.dataset_commands import dataset
-from hbtp.cli.domain_commands import export_pddl, ground, scenarios
-from hbtp.cli.examples_command import examples
 from hbtp.cli.exit_codes import ExitCode, error_line, exit_code_for, shorten
-from hbtp.cli.export_command import export_command
-from hbtp.cli.plan_command import plan_command
-from hbtp.cli.robustness_command import robustness
-from hbtp.cli.run_command import run_command, verify_command
-from hbtp.cli.validate_command import validate_optimal
-from hbtp.cli.view_command import view_command
+from hbtp.cli.lazy import LazyGroup
 from hbtp.errors import HbtpError
+
+#: Each command and where it lives (``module:attribute``): a command's module, and what it needs, is
+#: imported only when that command runs (``hbtp --version`` imports none of them).
+COMMANDS: dict[str, str] = {
+    "bench": "hbtp.cli.bench_commands:bench",
+    "dataset": "hbtp.cli.dataset_commands:dataset",
+    "examples": "hbtp.cli.examples_command:examples",
+    "export": "hbtp.cli.export_command:export_command",
+    "export-pddl": "hbtp.cli.domain_commands:export_pddl",
+    "ground": "hbtp.cli.domain_commands:ground",
+    "plan": "hbtp.cli.plan_command:plan_command",
+    "run": "hbtp.cli.run_command:run_command",
+    "scenarios": "hbtp.cli.domain_commands:scenarios",
+    "validate-optimal": "hbtp.cli.validate_command:validate_optimal",
+    "verify": "hbtp.cli.run_command:verify_command",
+    "view": "hbtp.cli.view_command:view_command",
+}
+
 
 EXIT_OK, EXIT_NOT_SOLVED, EXIT_INPUT, EXIT_INTERNAL = (
     ExitCode.OK,
@@ -84,7 +93,7 @@ class _CommandLog(logging.Handler):
         return len(held)
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=LazyGroup, lazy=COMMANDS, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="hbtp")
 @click.option("-v", "--verbose", count=True, help="More log output on stderr (-vv for debug).")
 @click.option("--debug", is_flag=True, help="Show tracebacks of errors.")
@@ -95,21 +104,6 @@ def cli(context: click.Context, verbose: int, debug: bool) -> None:
     logging.getLogger().setLevel(level)
     if verbose and isinstance(context.obj, _CommandLog):
         context.obj.write_held()  # with -v, everything as it comes
-
-
-cli.add_command(scenarios)
-cli.add_command(ground)
-cli.add_command(export_pddl)
-cli.add_command(dataset)
-cli.add_command(plan_command)
-cli.add_command(bench)
-cli.add_command(export_command)
-cli.add_command(run_command)
-cli.add_command(verify_command)
-cli.add_command(view_command)
-bench.add_command(robustness)
-cli.add_command(validate_optimal)
-cli.add_command(examples)
 
 
 class _PipeSafeOutput:

@@ -14,16 +14,16 @@ from hbtp.bench.fig4 import Fig4Config, run_fig4
 from hbtp.bench.instructions import InstructionsBench, report, run_instructions
 from hbtp.bench.payoff import SETS, PayoffConfig, run_payoff
 from hbtp.bench.pddl_suite import PddlConfig, run_pddl
-from hbtp.bench.runner import Execution
+from hbtp.bench.runner import EXECUTORS, Execution, ExecutorName
 from hbtp.bench.suite import PARTS, SuiteConfig, run_suite
 from hbtp.bench.table1 import Table1Config, run_table1
 from hbtp.bench.table2 import BackendRecipe, Table2Config, run_table2, write_table2_report
+from hbtp.cli.lazy import LazyGroup
 from hbtp.cli.options import (
     backend_options,
     comma_choices,
     comma_numbers,
     examples_option,
-    execution_options,
     feedback_rounds_option,
     option_group,
     retrieval_option,
@@ -62,7 +62,32 @@ task_time_limit_option = click.option(
 )
 
 
-@click.group()
+def _execution(jobs: int, executor: str, kill_after: float | None, no_progress: bool) -> Execution:
+    return Execution(executor=cast(ExecutorName, executor), jobs=jobs, kill_after=kill_after, progress=not no_progress)
+
+
+#: ``--jobs``, ``--executor``, ``--kill-after``, ``--no-progress``, passed on as ``execution``.
+execution_options = option_group(
+    "execution",
+    _execution,
+    click.option("-j", "--jobs", type=click.IntRange(1, 512), default=1, show_default=True, help="Runs in parallel."),
+    click.option(
+        "--executor",
+        type=click.Choice(list(EXECUTORS)),
+        default="local",
+        show_default=True,
+        help="local: worker processes; ray: a Ray cluster ($RAY_ADDRESS) or a local Ray; inline: this process.",
+    ),
+    click.option(
+        "--kill-after",
+        type=click.FloatRange(min=0, min_open=True),
+        help="Hard limit in seconds per run: the worker is killed (default: from the benchmark's time limits).",
+    ),
+    click.option("--no-progress", is_flag=True, help="No progress bar."),
+)
+
+
+@click.group(cls=LazyGroup, lazy={"robustness": "hbtp.cli.robustness_command:robustness"})
 def bench() -> None:
     """Reproduce the paper's tables (results.jsonl + summary.json; re-running resumes)."""
 

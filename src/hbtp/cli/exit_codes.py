@@ -20,12 +20,14 @@ from __future__ import annotations
 
 import enum
 import re
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, Any
 
 import click
 
 from hbtp.errors import HbtpError, PlanningError
-from hbtp.planning.result import Status
+
+if TYPE_CHECKING:
+    from hbtp.planning.result import Status
 
 ERROR_PREFIX = "hbtp: error: "
 
@@ -68,6 +70,8 @@ def exit_code_for(error: HbtpError) -> ExitCode:
 def plan_exit_code(status: Status) -> ExitCode:
     """The exit code of a planning run that ended with ``status``: 0 solved, 3 an internal error of
     the search, 1 otherwise (unsolvable, a time, node or memory limit)."""
+    from hbtp.planning.result import Status  # here, not at the top: `hbtp --version` stays light
+
     if status.solved:
         return ExitCode.OK
     return ExitCode.INTERNAL if status is Status.ERROR else ExitCode.NOT_SOLVED

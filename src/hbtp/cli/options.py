@@ -13,7 +13,6 @@ from typing import Any, TypeVar, cast
 
 import click
 
-from hbtp.bench.runner import EXECUTORS, Execution, ExecutorName
 from hbtp.deadline import DEFAULT_TIME_LIMIT, Deadline
 from hbtp.domains import Scenario, load_pddl_scenario, load_scenario, scenario_names
 from hbtp.domains.pruned import PrunedWorld
@@ -182,31 +181,6 @@ def comma_numbers(text: str, hint: str, upper: float = 1.0) -> tuple[float, ...]
     if not values or any(not 0.0 <= v <= upper for v in values):
         raise click.BadParameter(f"every value must be between 0 and {upper}", param_hint=hint)
     return values
-
-
-def _execution(jobs: int, executor: str, kill_after: float | None, no_progress: bool) -> Execution:
-    return Execution(executor=cast(ExecutorName, executor), jobs=jobs, kill_after=kill_after, progress=not no_progress)
-
-
-#: ``--jobs``, ``--executor``, ``--kill-after``, ``--no-progress``, passed on as ``execution``.
-execution_options = option_group(
-    "execution",
-    _execution,
-    click.option("-j", "--jobs", type=click.IntRange(1, 512), default=1, show_default=True, help="Runs in parallel."),
-    click.option(
-        "--executor",
-        type=click.Choice(list(EXECUTORS)),
-        default="local",
-        show_default=True,
-        help="local: worker processes; ray: a Ray cluster ($RAY_ADDRESS) or a local Ray; inline: this process.",
-    ),
-    click.option(
-        "--kill-after",
-        type=click.FloatRange(min=0, min_open=True),
-        help="Hard limit in seconds per run: the worker is killed (default: from the benchmark's time limits).",
-    ),
-    click.option("--no-progress", is_flag=True, help="No progress bar."),
-)
 
 
 def _positive_seconds(context: click.Context, parameter: click.Parameter, value: float) -> float:

@@ -9,8 +9,8 @@ import click
 
 from hbtp.bench.robustness import MAX_TICKS, SCENARIOS, RobustnessConfig, run_robustness
 from hbtp.bench.runner import Execution
-from hbtp.cli.bench_commands import out_dir_option
-from hbtp.cli.options import comma_choices, comma_numbers, execution_options, option_group
+from hbtp.cli.bench_commands import execution_options, out_dir_option
+from hbtp.cli.options import comma_choices, comma_numbers, option_group
 from hbtp.cli.run_command import exit_codes
 from hbtp.planning import PLANNERS
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
