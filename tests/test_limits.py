@@ -61,7 +61,9 @@ def test_time_limit_stops_a_hard_search_promptly_with_the_partial_tree(robothow:
     time_s = 0.1
     with cyclic_gc_paused():
         started = time.perf_counter()
-        result = plan(task, HARD_GOAL, "obtea", mutexes=robothow.mutexes, limits=Limits(time_s=time_s))
+        result = plan(
+            task, HARD_GOAL, "obtea", heuristic="none", mutexes=robothow.mutexes, limits=Limits(time_s=time_s)
+        )
         elapsed = time.perf_counter() - started
     assert result.status is Status.TIMEOUT, result.message
     assert not result.solved
@@ -84,7 +86,7 @@ def test_time_limit_stops_a_hard_search_promptly_with_the_partial_tree(robothow:
 def test_time_limit_is_reported_without_mutexes_too(robothow: Scenario) -> None:
     with cyclic_gc_paused():
         started = time.perf_counter()
-        result = plan(robothow.task, HARD_GOAL, "obtea", limits=Limits(time_s=0.1))
+        result = plan(robothow.task, HARD_GOAL, "obtea", heuristic="none", limits=Limits(time_s=0.1))
         elapsed = time.perf_counter() - started
     assert result.status is Status.TIMEOUT
     assert elapsed <= 0.15
@@ -95,7 +97,14 @@ def test_time_limit_is_reported_without_mutexes_too(robothow: Scenario) -> None:
 @pytest.mark.parametrize("planner", ["bte", "obtea", "hbtp-o", "hbtp-s"])
 @pytest.mark.parametrize("count", [1, 7, 300])
 def test_expansion_limit_stops_after_exactly_that_many_expansions(robothow: Scenario, planner: str, count: int) -> None:
-    result = plan(robothow.task, HARD_GOAL, planner, mutexes=robothow.mutexes, limits=Limits(max_expansions=count))
+    result = plan(
+        robothow.task,
+        HARD_GOAL,
+        planner,
+        heuristic="none",
+        mutexes=robothow.mutexes,
+        limits=Limits(max_expansions=count),
+    )
     assert result.status is Status.NODE_LIMIT
     assert len(result.expansions) == count
     assert result.stats.explored == count
@@ -123,7 +132,9 @@ def test_expansion_limit_equal_to_the_search_size_still_solves(robowaiter: Scena
 
 def test_tiny_memory_limit_stops_at_the_first_memory_check(robothow: Scenario) -> None:
     """Memory is read every 256 expansions; a 1 MB limit is below any Python process."""
-    result = plan(robothow.task, HARD_GOAL, "obtea", mutexes=robothow.mutexes, limits=Limits(memory_mb=1.0))
+    result = plan(
+        robothow.task, HARD_GOAL, "obtea", heuristic="none", mutexes=robothow.mutexes, limits=Limits(memory_mb=1.0)
+    )
     assert result.status is Status.MEMORY_LIMIT
     assert len(result.expansions) == 256
     assert result.stats.explored == 256
@@ -187,7 +198,7 @@ def test_a_shared_deadline_bounds_the_search_below_its_own_time_limit(robothow: 
     deadline = Deadline(0.1)
     limits = Limits(time_s=60, deadline=deadline)
     with cyclic_gc_paused():
-        result = plan(robothow.task, HARD_GOAL, "obtea", mutexes=robothow.mutexes, limits=limits)
+        result = plan(robothow.task, HARD_GOAL, "obtea", heuristic="none", mutexes=robothow.mutexes, limits=limits)
         late = -deadline.remaining()
     assert result.status is Status.TIMEOUT
     assert result.message == "time limit of 0.1 s reached"

@@ -377,7 +377,15 @@ def test_feedback_carries_the_longest_paths_and_what_was_left_out(
     # the top path is the longest
     assert len(numbered[0].split(", ")) >= len(numbered[1].split(", "))
     # the same paths the search gives (recomputed independently of the loop)
-    round0 = plan(task, GOAL, "hbtp-s", hints=loop.rounds[0].hints, space="pruned", mutexes=robothow_small.mutexes)
+    round0 = plan(  # as the loop's rounds plan: the paper's planner, no LLM-free heuristic
+        task,
+        GOAL,
+        "hbtp-s",
+        hints=loop.rounds[0].hints,
+        space="pruned",
+        mutexes=robothow_small.mutexes,
+        heuristic="none",
+    )
     names = [a.signature.underscored for a in task.actions]
     assert [line.split(". ", 1)[1] for line in numbered] == [", ".join(p) for p in longest_paths(round0, names, 2)]
     left_predicates = sorted(set(task.action_predicates) - allowed)
@@ -391,7 +399,7 @@ def test_longest_paths_lead_from_explored_conditions_to_the_goal(robothow_small:
     task = robothow_small.task
     hinted = ("Walk(cutlets)", "RightGrab(cutlets)", "Open(fridge)", "RightPutIn(cutlets,fridge)", "Close(fridge)")
     hints = Hints(hinted, ("Walk",), ("cutlets", "fridge"))
-    result = plan(task, GOAL, "hbtp-s", hints=hints, space="pruned", mutexes=robothow_small.mutexes)
+    result = plan(task, GOAL, "hbtp-s", hints=hints, space="pruned", mutexes=robothow_small.mutexes, heuristic="none")
     assert not result.solved
     names = [a.signature.underscored for a in task.actions]
     paths = longest_paths(result, names, 3)

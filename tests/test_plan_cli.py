@@ -63,7 +63,7 @@ def test_solved_plan_prints_the_tree_and_exits_0(capsys: pytest.CaptureFixture[s
         capsys, "plan", "-s", "robowaiter", "-g", "On_Coffee_Table1", "-p", "obtea", "--heuristic", "none"
     )
     assert code == EXIT_OK, err
-    expected = plan(robowaiter.task, "On_Coffee_Table1", "obtea", mutexes=robowaiter.mutexes)
+    expected = plan(robowaiter.task, "On_Coffee_Table1", "obtea", mutexes=robowaiter.mutexes, heuristic="none")
     lines = out.splitlines()
     assert lines[0].startswith(f"solved: D(T)={expected.cost}  explored |S-|={len(expected.expansions)}")
     assert lines[1] == "executes: " + " -> ".join(robowaiter.task.actions[i].name for i in expected.executed)
@@ -313,8 +313,9 @@ def test_out_writes_a_json_tree_that_reads_back_to_the_same_tree(
     assert meta["format"] == "hbtp-tree"
     assert meta["scenario"] == "robothow"
     assert meta["goal"] == [str(atom) for atom in robothow.task.resolve_goal(MILK).atoms]  # literals, P(a,b) form
+    hints = parse_reply(PAPER_REPLY).hints
     result = plan(
-        robothow.task, MILK, "hbtp-o", hints=parse_reply(PAPER_REPLY).hints, space="pruned", mutexes=robothow.mutexes
+        robothow.task, MILK, "hbtp-o", hints=hints, space="pruned", mutexes=robothow.mutexes, heuristic="none"
     )
     assert root == tree_of(result)
     assert tree_to_json(root, robothow.task, scenario="robothow", goal=MILK) == text
@@ -608,3 +609,18 @@ def test_without_goal_a_placeholder_is_a_one_line_error_and_a_disjunctive_goal_i
     code, out, err = run(capsys, "plan", "--pddl", str(HOUSEHOLD / "domain.pddl"), str(equality))
     assert (code, out) == (EXIT_INPUT, "")
     assert "the problem's :goal is never true once its exists/forall and = are evaluated" in one_line_error(err)
+
+
+def test_the_library_plans_with_the_cli_defaults(capsys: pytest.CaptureFixture[str], robothow: Scenario) -> None:
+    # One default heuristic (landmarks) for `hbtp plan` and hbtp.planning.plan(): the README's API
+    # example and the command give the same search.
+    code, out, err = run(capsys, "plan", "-s", "robothow", "-g", MILK, "--json")
+    assert code == EXIT_OK, err
+    shown = json.loads(out)
+    scenario, goal = robothow.resolve_goal(MILK)
+    scenario = scenario.for_goal(goal)
+    result = plan(scenario.task, goal, mutexes=scenario.mutexes)
+    assert result.cost == shown["cost"]
+    assert len(result.expansions) == shown["explored"]
+    without = plan(scenario.task, goal, mutexes=scenario.mutexes, heuristic="none")
+    assert len(without.expansions) != shown["explored"]  # the default is a heuristic, not none

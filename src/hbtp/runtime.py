@@ -51,7 +51,7 @@ from hbtp.errors import HbtpError, InputError
 from hbtp.logic.atoms import declared_action, parse_atom
 from hbtp.logic.execution import Disturbance, NodeStatus, Policy, Run, Trace, TraceStep, execute
 from hbtp.logic.task import Goal, GoalIds, GroundAction, GroundTask, State
-from hbtp.planning.heuristics import HeuristicName
+from hbtp.planning.heuristics import DEFAULT_HEURISTIC, HeuristicName
 from hbtp.planning.limits import Limits
 from hbtp.planning.planners import confirmed_search, planner_config
 from hbtp.planning.result import PlanResult, Status
@@ -90,7 +90,7 @@ class ReplanOptions:
     #: Seconds of re-planning in one run, all re-plans together.
     budget_s: float = 30.0
     planner: str = "obtea"
-    heuristic: HeuristicName = "lm"
+    heuristic: HeuristicName = DEFAULT_HEURISTIC
     tree: str = "full"
     engine: Engine = Engine.HBTP
 

@@ -516,7 +516,14 @@ def compare_files(domain_file: Path, problem_file: Path, *, time_limit: float = 
     whole, goal = scenario.resolve_goal(scenario.problem_goal())
     scenario = whole.for_goal(goal)
     left = max(time_limit - (time.perf_counter() - started), 0.1)
-    result = plan(scenario.task, goal, "obtea", mutexes=scenario.mutexes.proved_only(), limits=Limits(time_s=left))
+    result = plan(
+        scenario.task,
+        goal,
+        "obtea",
+        heuristic="none",
+        mutexes=scenario.mutexes.proved_only(),
+        limits=Limits(time_s=left),
+    )
     obtea_time = time.perf_counter() - started
     tree_ok = result.solved and _tree_reaches(result, scenario.task, goal)
     fd = run_fast_downward_files(domain_file, problem_file, time_limit=time_limit)

@@ -120,7 +120,7 @@ def run_one(run: Fig4Run) -> dict[str, Any]:
         task,
         task.resolve_goal(record.goal),
         space,
-        planner_config(run.planner),
+        planner_config(run.planner, heuristic="none"),
         mutexes=scenario.mutexes,
         hints=resolve_hints(task, Hints(tuple(path))),
         limits=Limits(time_s=run.time_limit),

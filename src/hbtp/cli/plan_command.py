@@ -48,7 +48,7 @@ from hbtp.pipeline import DEFAULT_PROBE_SECONDS, AutoResult, LoopOptions, LoopRe
 from hbtp.pipeline.instruct import GoalChoice
 from hbtp.pipeline.loop import Progress
 from hbtp.planning import PLANNER_DESCRIPTIONS, PLANNERS, Limits, plan
-from hbtp.planning.heuristics import HEURISTICS, HeuristicName
+from hbtp.planning.heuristics import DEFAULT_HEURISTIC, HEURISTICS, HeuristicName
 from hbtp.planning.planners import check_alpha, planner_config
 from hbtp.planning.result import PlanResult, Status
 
@@ -96,7 +96,7 @@ search_options = option_group(
     click.option(
         "--heuristic",
         type=click.Choice(list(HEURISTICS)),
-        default="lm",
+        default=DEFAULT_HEURISTIC,
         show_default=True,
         help="LLM-free admissible heuristic: lm (landmarks, max with hmax), lmcut (also h² and LM-cut: stronger, "
         "costlier; for IPC-style PDDL domains), seq (lmcut and the state equation: counts, prunes conditions no "

@@ -13,7 +13,7 @@ from hbtp.cli.bench_commands import execution_options, out_dir_option
 from hbtp.cli.options import comma_choices, comma_numbers, option_group
 from hbtp.cli.run_command import exit_codes
 from hbtp.planning import PLANNERS
-from hbtp.planning.heuristics import HEURISTICS, HeuristicName
+from hbtp.planning.heuristics import DEFAULT_HEURISTIC, HEURISTICS, HeuristicName
 
 
 def _figure(value: float | None, percent: bool = False) -> str:
@@ -75,7 +75,11 @@ robustness_options = option_group(
         help="Planner of the trees.",
     ),
     click.option(
-        "--heuristic", type=click.Choice(list(HEURISTICS)), default="lm", show_default=True, help="LLM-free heuristic."
+        "--heuristic",
+        type=click.Choice(list(HEURISTICS)),
+        default=DEFAULT_HEURISTIC,
+        show_default=True,
+        help="LLM-free heuristic.",
     ),
     click.option(
         "--max-ticks", type=int, default=MAX_TICKS, show_default=True, help="Ticks per run before it counts as failed."

@@ -21,7 +21,7 @@ from hbtp.planning.costs import (
     check_alpha,
 )
 from hbtp.planning.flow import require_solver
-from hbtp.planning.heuristics import HEURISTICS, HeuristicName
+from hbtp.planning.heuristics import DEFAULT_HEURISTIC, HEURISTICS, HeuristicName
 from hbtp.planning.hints import Hints, ResolvedHints, pruned_action_space, resolve_hints
 from hbtp.planning.limits import Limits
 from hbtp.planning.result import PlanResult, SearchStats, Status
@@ -56,7 +56,7 @@ __all__ = [
 
 
 def planner_config(
-    name: str, *, heuristic: HeuristicName = "none", alpha: Number = DEFAULT_ALPHA, symmetry: bool = False
+    name: str, *, heuristic: HeuristicName = DEFAULT_HEURISTIC, alpha: Number = DEFAULT_ALPHA, symmetry: bool = False
 ) -> SearchConfig:
     """The :class:`SearchConfig` of a registered planner, with the given options.
 
@@ -83,25 +83,26 @@ def plan(
     hints: Hints | ResolvedHints | None = None,
     space: Space = "full",
     mutexes: Mutexes | None = None,
-    heuristic: HeuristicName = "none",
+    heuristic: HeuristicName | None = None,
     alpha: Number = DEFAULT_ALPHA,
     limits: Limits | None = None,
     extra_expansions: int = 0,
 ) -> PlanResult:
     """Plan a behavior tree for ``goal``.
 
-    ``planner`` is a planner's name, with ``heuristic`` and ``alpha``, or a :class:`SearchConfig`
-    from :func:`planner_config`, which holds them and the rarer options (``symmetry``).
+    ``planner`` is a planner's name, with ``heuristic`` (default :data:`DEFAULT_HEURISTIC`, as
+    ``hbtp plan``) and ``alpha``, or a :class:`SearchConfig` from :func:`planner_config`, which
+    holds them and the rarer options (``symmetry``).
     ``space="pruned"`` searches A⁻ = (Q⁻ × O⁻) ∩ A built from the hints; ``"full"`` every action.
     Hints naming unknown actions, predicates or objects are reported in the log and ignored.
     ``extra_expansions`` explores that many more conditions after the solution (a more reactive tree).
     """
     if isinstance(planner, SearchConfig):
-        if heuristic != "none" or alpha != DEFAULT_ALPHA:
+        if heuristic is not None or alpha != DEFAULT_ALPHA:
             raise InputError("give the heuristic and alpha in the SearchConfig, not beside it")
         config = planner
     else:
-        config = planner_config(planner, heuristic=heuristic, alpha=alpha)
+        config = planner_config(planner, heuristic=DEFAULT_HEURISTIC if heuristic is None else heuristic, alpha=alpha)
     resolved_goal = task.resolve_goal(goal) if isinstance(goal, str) else goal
     resolved: ResolvedHints | None
     if hints is None:
