@@ -190,8 +190,8 @@ def test_plan_with_the_oracle_prints_the_round_record(capsys: pytest.CaptureFixt
 def test_plan_text_output_names_the_outcome(capsys: pytest.CaptureFixture[str]) -> None:
     code, out, err = run(capsys, "plan", "-s", "robowaiter", "-g", "On_Coffee_Table1", "--llm", "oracle")
     assert code == EXIT_OK, err
-    assert out.startswith("LLM: NF after 1 round(s)")
-    assert "round 0: solved, |A-|=" in out
+    assert out.startswith("LLM: solved with the LLM's first answer (NF)")
+    assert "round 0: solved in a space of " in out
 
 
 def test_record_then_replay_gives_the_same_tree(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:

@@ -79,7 +79,7 @@ def test_the_cli_solves_the_issue_goal(
     assert code == EXIT_OK, captured.out + captured.err
     assert captured.out.startswith("solved: ")
     if planner == "obtea":
-        assert captured.out.startswith(f"solved: D(T)={ISSUE_COST} ")
+        assert captured.out.startswith(f"solved: cost {ISSUE_COST},")
     root, _ = tree_from_json(out.read_text(encoding="utf-8"), robothow_small.task, str(out))
     run = run_tree(root, robothow_small.task, robothow_small.task.initial_state, max_ticks=200)
     assert run.reached
@@ -90,7 +90,7 @@ def test_the_cli_solves_the_issue_goal_with_oracle_hints(capsys: pytest.CaptureF
     code = main(["plan", "-s", "robothow-small", "-p", "obtea", "-g", ISSUE_GOAL, "--hints", "oracle"])
     captured = capsys.readouterr()
     assert code == EXIT_OK, captured.out + captured.err
-    assert captured.out.startswith(f"solved: D(T)={ISSUE_COST} ")
+    assert captured.out.startswith(f"solved: cost {ISSUE_COST},")
 
 
 def test_the_llm_loop_without_fallback_does_not_call_the_issue_goal_unsolvable(robothow_small: Scenario) -> None:

@@ -101,7 +101,7 @@ def test_a_task_over_the_static_bound_plans_through_the_fallback(
     domain, problem = _gated(tmp_path, 60, 3)
     tree = tmp_path / "tree.json"
     assert main(["plan", "--pddl", domain, problem, "-o", str(tree)]) == 0
-    assert "D(T)=2" in capsys.readouterr().out  # go into an open object, finish there
+    assert "solved: cost 2," in capsys.readouterr().out  # go into an open object, finish there
     assert json.loads(tree.read_text(encoding="utf-8"))
     assert main(["ground", "--pddl", domain, problem, "--names"]) == 0
     names = capsys.readouterr().out.split()

@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import re
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -233,9 +234,9 @@ def test_plan_instruction_errors_are_one_line_with_exit_2(capsys: pytest.Capture
 def test_the_attempts_are_in_the_json_when_no_goal_is_acceptable(
     capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from hbtp.cli import instruction_input
+    from hbtp.cli import plan_run
 
-    monkeypatch.setattr(instruction_input, "make_goal_backend", lambda *_: Scripted(["IsOpen_fridge & ~IsOpen_fridge"]))
+    monkeypatch.setattr(plan_run, "make_goal_backend", lambda *_: Scripted(["IsOpen_fridge & ~IsOpen_fridge"]))
     code, out, err = _run(capsys, "plan", "-s", "virtualhome", "-i", "Open the fridge.", "--json")
     assert code == 2
     record = json.loads(out)
@@ -324,3 +325,35 @@ def test_an_openai_compatible_server_gets_the_goal_schema_and_its_json_is_read(v
     pattern = re.compile(sent["response_format"]["json_schema"]["schema"]["properties"]["goal"]["pattern"])
     assert pattern.fullmatch("IsIn_milk_fridge & ~IsOpen_fridge")
     assert sent["messages"][-1]["content"] == text
+
+
+@pytest.mark.llm
+def test_one_model_load_serves_the_instruction_and_the_hints_and_t_bounds_it(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    pytest.importorskip("xllamacpp")
+    from hbtp.llm.backends import local
+
+    starts: list[object] = []
+    start_server = local.start_server
+
+    def counted(*args: Any, **kwargs: Any) -> Any:
+        starts.append(args)
+        return start_server(*args, **kwargs)
+
+    monkeypatch.setattr(local, "start_server", counted)
+    code, out, err = _run(
+        capsys, "plan", "-s", "virtualhome", "-i", "Put the chicken in the microwave.", "--llm", "local", "--json"
+    )
+    assert code == 0, err
+    record = json.loads(out)
+    assert record["instruction"]["goal"] == "IsIn_chicken_microwave"
+    assert record["auto"]["asked_llm"] is False  # an easy task: hints would not pay, the model is not asked again
+    assert len(starts) == 1
+    # -t bounds the instruction step too: too little time is a time limit (exit 1), in one line.
+    started = time.perf_counter()
+    code, _, err = _run(capsys, "plan", "-s", "virtualhome", "-i", "Put the chicken in the microwave.", "-t", "0.5")
+    assert time.perf_counter() - started < 0.5 + 2.5  # (loading the model is not interrupted)
+    assert code == 1
+    assert err.startswith("hbtp: error: time limit of 0.5 s reached while")
+    assert err.count("\n") == 1

@@ -16,7 +16,7 @@ from hbtp.domains import Scenario
 from hbtp.errors import InputError
 from hbtp.llm.backend import Backend, PromptStyle, Reply, Request
 from hbtp.llm.backends.oracle import OracleBackend
-from hbtp.llm.backends.registry import BackendOptions, auto_backend, make_backend
+from hbtp.llm.backends.registry import BackendOptions, LlmSpec, make_backend
 from hbtp.pipeline import AutoResult, LoopOptions, Outcome, plan_auto
 from hbtp.planning.result import Status
 from helpers import reaches
@@ -139,17 +139,20 @@ def test_the_probe_budget_must_be_positive(robothow_small: Scenario) -> None:
     ],
 )
 def test_auto_specs(spec: str, inner: str) -> None:
-    assert auto_backend(spec) == inner
+    parsed = LlmSpec.parse(spec)
+    assert parsed.auto
+    assert str(parsed.backend) == inner
+    assert str(parsed) == f"auto:{inner}"
 
 
 @pytest.mark.parametrize("spec", ["auto:", "auto:auto", "auto:bogus", "auto:replay:"])
 def test_bad_auto_specs_are_input_errors(spec: str) -> None:
     with pytest.raises(InputError):
-        auto_backend(spec)
+        LlmSpec.parse(spec)
 
 
 def test_auto_is_not_a_backend(robothow_small: Scenario) -> None:
-    assert auto_backend("oracle") is None
+    assert not LlmSpec.parse("oracle").auto
     with pytest.raises(InputError, match="mode"):
         make_backend("auto:oracle", robothow_small, BackendOptions())
 
@@ -186,12 +189,12 @@ def test_cli_auto_asks_the_llm_after_the_probe(capsys: pytest.CaptureFixture[str
 def test_cli_auto_text_says_which_path(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["plan", "-s", "robothow-small", "-g", GOAL, "--llm", "auto:oracle"]) == EXIT_OK
     first = capsys.readouterr().out.splitlines()[0]
-    assert first.startswith("auto: LLM-free probe solved")
+    assert first.startswith("auto: LLM-free planning solved")
     assert "not asked" in first
     assert main(["plan", "-s", "robothow-small", "-g", GOAL, "--llm", "auto:oracle", "--auto-probe", "1e-9"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].endswith("asked the LLM")
-    assert lines[1].startswith("LLM: NF")
+    assert lines[1].startswith("LLM: solved with the LLM's first answer (NF)")
 
 
 def test_cli_time_limit_bounds_auto(capsys: pytest.CaptureFixture[str]) -> None:

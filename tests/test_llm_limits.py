@@ -21,7 +21,7 @@ from typing import Any
 import pytest
 
 from hbtp.cli import EXIT_INPUT, EXIT_NOT_SOLVED, EXIT_OK, main
-from hbtp.cli.hints_file import load_hints
+from hbtp.cli.hints_file import HintsSource, load_hints
 from hbtp.datasets import load_dataset
 from hbtp.domains import Scenario
 from hbtp.errors import BackendError, InputError
@@ -401,10 +401,10 @@ def test_record_then_replay_local(
     oracle = OracleBackend(robowaiter)
 
     class FakeLlama:
-        def handle_completions(self, body: dict[str, Any]) -> dict[str, Any]:
+        def handle_completions(self, body: dict[str, Any], callback: Callable[[Any], bool]) -> None:
             goal = body["prompt"].rsplit("Goals: ", 1)[1].split("\n", 1)[0]
             text = oracle.complete(Request((), "", goal=goal)).text.removeprefix("Optimal Actions:")
-            return {"choices": [{"text": text, "finish_reason": "stop"}], "usage": {}}
+            callback({"choices": [{"text": text, "finish_reason": "stop"}], "usage": {}})
 
     def load(self: Any) -> None:
         self._server = FakeLlama()
@@ -492,7 +492,7 @@ def test_a_multi_record_file_with_a_malformed_record_gives_the_goals_record(
     path.write_text("\n\n".join(blocks), encoding="utf-8")
     goal = robowaiter.task.resolve_goal(wanted.goal)
     with caplog.at_level(logging.WARNING):
-        hints = load_hints(str(path), robowaiter, goal, Limits(time_s=10))
+        hints = load_hints(HintsSource(file=path), robowaiter, goal, Limits(time_s=10))
     assert hints == hints_from_record(wanted)
     assert hints != hints_from_record(records[0])
     assert "not a valid dataset file" in caplog.text
@@ -513,7 +513,7 @@ def test_a_hints_file_without_the_goal_is_rejected(
         assert code == EXIT_INPUT
         assert f"the goal {absent}" in one_line(err)
     with pytest.raises(InputError, match="its only record is not for the goal"):
-        load_hints(str(single), robowaiter, robowaiter.task.resolve_goal(absent), Limits(time_s=10))
+        load_hints(HintsSource(file=single), robowaiter, robowaiter.task.resolve_goal(absent), Limits(time_s=10))
 
 
 def test_a_non_utf8_hints_file_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -13,6 +13,7 @@ import re
 import socket
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
@@ -269,7 +270,7 @@ def test_serve_local_gives_up_on_a_server_that_never_starts(monkeypatch: pytest.
 
     def slow_server(params: Any) -> Any:
         time.sleep(3.0)
-        return SimpleNamespace(listening_address="http://127.0.0.1:9")
+        return SimpleNamespace(listening_address="http://127.0.0.1:9", handle_completions=lambda body: {})
 
     monkeypatch.setattr(local_server, "import_xllamacpp", lambda: _fake_xllamacpp(slow_server))
     started = time.monotonic()
@@ -303,11 +304,14 @@ class _GrammarServer:
     def __init__(self) -> None:
         self.bodies: list[dict[str, Any]] = []
 
-    def handle_completions(self, body: dict[str, Any]) -> dict[str, Any]:
+    def handle_completions(self, body: dict[str, Any], callback: Callable[[Any], bool]) -> None:
         self.bodies.append(body)
+        assert body["stream"]  # the backend reads every answer as a stream (to stop it in time)
         if "grammar" in body:
-            return {"error": {"code": 400, "message": "Failed to initialize samplers: failed to parse grammar"}}
-        return {"choices": [{"text": " Walk_apple", "finish_reason": "stop"}], "usage": {"completion_tokens": 3}}
+            callback({"error": {"code": 400, "message": "Failed to initialize samplers: failed to parse grammar"}})
+            return
+        callback({"choices": [{"text": " Walk", "finish_reason": None}]})
+        callback({"choices": [{"text": "_apple", "finish_reason": "stop"}], "usage": {"completion_tokens": 3}})
 
 
 @needs_xllamacpp
@@ -324,4 +328,37 @@ def test_a_refused_grammar_is_dropped_once_and_the_request_answered() -> None:
     assert [("grammar" in body) for body in server.bodies] == [True, False]
     backend.complete(request)  # not sent again
     assert "grammar" not in server.bodies[-1]
+    backend._server = None
+
+
+class _SlowServer:
+    """A stand-in that streams one token every 50 ms, for ever unless told to stop."""
+
+    def __init__(self) -> None:
+        self.chunks = 0
+
+    def handle_completions(self, body: dict[str, Any], callback: Callable[[Any], bool]) -> None:
+        while True:
+            time.sleep(0.05)
+            self.chunks += 1
+            if callback({"choices": [{"text": " Walk_apple,", "finish_reason": None}]}):
+                return
+
+
+@needs_xllamacpp
+def test_a_call_is_stopped_at_its_time_limit_and_not_started_without_time() -> None:
+    from hbtp.errors import BackendTimeLimit
+
+    backend = LocalBackend()
+    server = _SlowServer()
+    backend._server = server  # no model: the stand-in streams
+    started = time.perf_counter()
+    with pytest.raises(BackendTimeLimit, match="stopped"):
+        backend.complete(Request((), "Goals: x\nOptimal Actions:", time_limit=0.3))
+    assert 0.3 <= time.perf_counter() - started < 1.0
+    assert server.chunks >= 5
+    with pytest.raises(BackendTimeLimit, match="not asked"):  # a long prompt and little time: not sent
+        backend.complete(Request((), "Goals: x\n" * 2_000 + "Optimal Actions:", time_limit=0.5))
+    with pytest.raises(BackendTimeLimit, match="no time"):
+        backend.complete(Request((), "Goals: x\nOptimal Actions:", time_limit=0.0))
     backend._server = None

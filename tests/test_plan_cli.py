@@ -65,7 +65,10 @@ def test_solved_plan_prints_the_tree_and_exits_0(capsys: pytest.CaptureFixture[s
     assert code == EXIT_OK, err
     expected = plan(robowaiter.task, "On_Coffee_Table1", "obtea", mutexes=robowaiter.mutexes, heuristic="none")
     lines = out.splitlines()
-    assert lines[0].startswith(f"solved: D(T)={expected.cost}  explored |S-|={len(expected.expansions)}")
+    assert lines[0].startswith(
+        f"solved: cost {expected.cost}, a plan of {len(expected.executed)} actions; "
+        f"explored {len(expected.expansions)} conditions"
+    )
     assert lines[1] == "executes: " + " -> ".join(robowaiter.task.actions[i].name for i in expected.executed)
     assert lines[2] == "? Fallback"
     assert lines[3].endswith("[C] On(Coffee,Table1)")
@@ -161,7 +164,7 @@ def test_malformed_or_unknown_goal_is_an_input_error(
 def test_goal_already_true_in_s0_costs_nothing(capsys: pytest.CaptureFixture[str]) -> None:
     code, out, _ = run(capsys, "plan", "-s", "robothow", "-g", "IsClose_fridge")
     assert code == EXIT_OK
-    assert out.startswith("solved: D(T)=0  explored |S-|=1 ")
+    assert out.startswith("solved: cost 0, a plan of 0 actions; explored 1 condition ")
     assert "executes: (nothing)" in out
     code, record = run_json(capsys, "plan", "-s", "robothow", "-g", "IsClose_fridge", "-p", "obtea")
     assert code == EXIT_OK

@@ -53,3 +53,7 @@ class PlanningError(HbtpError):
 
 class BackendError(HbtpError):
     """An LLM backend that failed: server down, rejected key, missing model file."""
+
+
+class BackendTimeLimit(BackendError):
+    """An LLM call not made, or stopped, because the time it was given was too short."""

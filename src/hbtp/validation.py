@@ -59,6 +59,7 @@ from hbtp.errors import BackendError, InputError
 from hbtp.files import InputKind, read_text
 from hbtp.logic.task import Goal, GroundAction, GroundTask
 from hbtp.planning import Limits, PlanResult, Status, plan
+from hbtp.planning.planners import Space
 
 log = logging.getLogger(__name__)
 
@@ -451,7 +452,8 @@ def has_declared_mutexes(mutexes: Mutexes) -> bool:
 
 def run_obtea(task: GroundTask, goal: Goal, mutexes: Mutexes | None, time_limit: float) -> ObteaRun:
     """OBTEA on the full action space with the landmark heuristic."""
-    result = plan(task, goal, "obtea", space="full", mutexes=mutexes, heuristic="lm", limits=Limits(time_s=time_limit))
+    limits = Limits(time_s=time_limit)
+    result = plan(task, goal, "obtea", space=Space.FULL, mutexes=mutexes, heuristic="lm", limits=limits)
     return ObteaRun(result.status, result.cost if result.solved else None, result.stats.time_s)
 
 

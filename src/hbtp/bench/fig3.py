@@ -14,7 +14,7 @@ import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 from hbtp.bench.plots import plot_fig3
 from hbtp.bench.report import fig3_section, write_report
@@ -27,6 +27,7 @@ from hbtp.domains.scale import scaled_scenario
 from hbtp.llm.parse import hints_from_record
 from hbtp.planning import Limits, plan
 from hbtp.planning.heuristics import HeuristicName
+from hbtp.planning.planners import Space
 
 DATASET = "table1_robothow_100"
 KEY = ("scale", "task", "planner", "space", "heuristic")
@@ -37,7 +38,7 @@ HINTED = ("hbtp-o", "hbtp-s")
 class Fig3Config:
     scales: tuple[float, ...] = (1.0, 1.5, 2.0, 2.5, 3.0)
     planners: tuple[str, ...] = ("bte", "obtea", "hbtp-o", "hbtp-s")
-    space: Literal["full", "pruned"] = "full"
+    space: Space = Space.FULL
     heuristic: HeuristicName = "none"
     time_limit: float = 5.0
     limit: int | None = 20
@@ -50,7 +51,7 @@ class Fig3Run:
     scale: float
     record: Record
     planner: str
-    space: Literal["full", "pruned"]
+    space: Space
     heuristic: HeuristicName
     time_limit: float
 

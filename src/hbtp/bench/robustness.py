@@ -34,6 +34,7 @@ from hbtp.llm.parse import hints_from_record
 from hbtp.logic.task import Goal
 from hbtp.planning import PLANNERS, Limits, PlanResult, plan
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
+from hbtp.planning.planners import Space
 from hbtp.runtime import replanning_stats
 
 log = logging.getLogger(__name__)
@@ -80,7 +81,7 @@ def plan_record(
         record.goal,
         planner,
         hints=hints,
-        space="pruned",
+        space=Space.PRUNED,
         mutexes=scenario.mutexes,
         heuristic=heuristic,
         limits=limits,

@@ -44,6 +44,7 @@ from hbtp.bench.table1 import Table1Config, run_table1, setting_label, write_tab
 from hbtp.bench.table2 import BackendRecipe, Table2Config, run_table2, write_table2_report
 from hbtp.errors import InputError
 from hbtp.pipeline import LoopOptions
+from hbtp.planning.planners import Space
 
 log = logging.getLogger(__name__)
 
@@ -71,11 +72,13 @@ def table1_settings(quick: bool) -> list[tuple[str, Table1Config]]:
     """(folder, setting): the paper's two settings, and OBTEA with the landmark heuristic."""
     limit, full_limit, seconds = (10, 5, 2.0) if quick else (None, None, 5.0)
     return [
-        ("pruned", Table1Config(space="pruned", hints="oracle", time_limit=5.0, limit=limit)),
-        ("full", Table1Config(space="full", hints="oracle", time_limit=seconds, limit=full_limit)),
+        ("pruned", Table1Config(space=Space.PRUNED, hints="oracle", time_limit=5.0, limit=limit)),
+        ("full", Table1Config(space=Space.FULL, hints="oracle", time_limit=seconds, limit=full_limit)),
         (
             "full-lm",
-            Table1Config(space="full", planners=("obtea",), hints="none", heuristic="lm", time_limit=5.0, limit=limit),
+            Table1Config(
+                space=Space.FULL, planners=("obtea",), hints="none", heuristic="lm", time_limit=5.0, limit=limit
+            ),
         ),
     ]
 
@@ -85,7 +88,7 @@ def fig3_settings(quick: bool) -> list[tuple[str, Fig3Config]]:
         base = Fig3Config(scales=(1.0, 2.0), time_limit=2.0, limit=3)
     else:
         base = Fig3Config(scales=(1.0, 1.5, 2.0, 2.5, 3.0), time_limit=5.0, limit=20)
-    return [("none", base), ("lm", replace(base, heuristic="lm")), ("pruned", replace(base, space="pruned"))]
+    return [("none", base), ("lm", replace(base, heuristic="lm")), ("pruned", replace(base, space=Space.PRUNED))]
 
 
 def fig4_setting(quick: bool) -> Fig4Config:

@@ -18,6 +18,7 @@ from hbtp.domains import load_scenario
 from hbtp.llm.parse import hints_from_record
 from hbtp.planning import Limits, plan
 from hbtp.planning.heuristics import HeuristicName
+from hbtp.planning.planners import Space
 from hbtp.planning.result import Status
 
 log = logging.getLogger(__name__)
@@ -59,7 +60,7 @@ REFERENCE = {
 
 @dataclass(frozen=True)
 class Table1Config:
-    space: Literal["full", "pruned"] = "pruned"
+    space: Space = Space.PRUNED
     planners: tuple[str, ...] = ("bte", "obtea", "hbtp-o", "hbtp-s")
     hints: Literal["oracle", "none"] = "oracle"
     heuristic: HeuristicName = "none"
@@ -73,7 +74,7 @@ class Table1Run:
 
     record: Record
     planner: str
-    space: Literal["full", "pruned"]
+    space: Space
     hints: Literal["oracle", "none"]
     heuristic: HeuristicName
     time_limit: float
@@ -136,7 +137,7 @@ def run_one(run: Table1Run) -> dict[str, Any]:
     scenario = load_scenario(SCENARIO)
     record = run.record
     hints = hints_from_record(record) if run.hints == "oracle" else None
-    space: Literal["full", "pruned"] = run.space if hints is not None else "full"
+    space = run.space if hints is not None else Space.FULL
     result = plan(
         scenario.task,
         record.goal,

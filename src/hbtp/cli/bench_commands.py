@@ -37,6 +37,7 @@ from hbtp.pipeline import LoopOptions
 from hbtp.planning import PLANNERS
 from hbtp.planning.generate import LEVELS
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
+from hbtp.planning.planners import Space
 
 #: Options several benchmarks share.
 out_dir_option = click.option(
@@ -128,7 +129,7 @@ def table1(
     if not time_limit > 0:
         raise click.BadParameter("must be a positive number of seconds", param_hint="--time-limit")
     config = Table1Config(
-        space="full" if space == "full" else "pruned",
+        space=Space(space),
         planners=chosen,
         hints="none" if hints == "none" else "oracle",
         heuristic=cast(HeuristicName, heuristic),
@@ -313,7 +314,7 @@ def fig3(
     config = Fig3Config(
         scales=factors,
         planners=comma_choices(planners, PLANNERS, "--planners", "planner"),
-        space="pruned" if space == "pruned" else "full",
+        space=Space(space),
         heuristic=cast(HeuristicName, heuristic),
         time_limit=time_limit,
         limit=limit,

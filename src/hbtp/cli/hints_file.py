@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 from hbtp.datasets import read_dataset_file
@@ -33,17 +34,46 @@ _NO_HINTS = (
 )
 
 
-def load_hints(source: str, loaded: Scenario, goal: Goal, limits: Limits) -> Hints | None:
-    """``none``, ``oracle`` (an optimal plan) or a file: the dataset record for ``goal`` or a raw LLM reply.
+@dataclass(frozen=True)
+class HintsSource:
+    """Where ``--hints`` takes the hints from: nowhere, the oracle (an optimal plan), or a file."""
+
+    oracle: bool = False
+    file: Path | None = None
+
+    @classmethod
+    def parse(cls, text: str) -> HintsSource:
+        """``none``, ``oracle`` or a file name (a file named ``oracle`` or ``none``: ``./oracle``)."""
+        if text == "none":
+            return cls()
+        if text == "oracle":
+            return cls(oracle=True)
+        if not text:
+            raise InputError("--hints needs none, oracle or a file name")
+        return cls(file=Path(text))
+
+    @property
+    def label(self) -> str:
+        """``none``, ``oracle`` or ``file``, as the JSON output names it."""
+        return "oracle" if self.oracle else "file" if self.file is not None else "none"
+
+    @property
+    def given(self) -> bool:
+        return self.oracle or self.file is not None
+
+
+def load_hints(source: HintsSource, loaded: Scenario, goal: Goal, limits: Limits) -> Hints | None:
+    """No hints, the oracle's (an optimal plan) or a file's: the dataset record for ``goal`` or a raw
+    LLM reply.
 
     Raises :class:`InputError` for a file that cannot be read, is not UTF-8, has no record for
     ``goal`` or has no hints at all.
     """
-    if source == "none":
-        return None
-    if source == "oracle":
+    if source.oracle:
         return oracle_hints(loaded.task, goal, loaded.mutexes, limits)
-    path = Path(source)
+    if source.file is None:
+        return None
+    path = source.file
     text = read_text(path, InputKind.HINTS)
     try:
         records: list[Record] | None = read_dataset_file(path)
@@ -53,7 +83,7 @@ def load_hints(source: str, loaded: Scenario, goal: Goal, limits: Limits) -> Hin
     if records:
         matching = [r for r in records if _goal_key(loaded, r.goal) == frozenset(goal.disjuncts)]
         if not matching:
-            raise InputError(f"{source}: {_none_has(len(records), goal)}")
+            raise InputError(f"{path}: {_none_has(len(records), goal)}")
         return hints_from_record(matching[0])
     blocks = [block for block in re.split(r"\n[ \t\r]*\n", text.removeprefix("\ufeff")) if block.strip()]
     with_goal = [(block, _GOALS_LINE.search(block)) for block in blocks]
@@ -61,20 +91,20 @@ def load_hints(source: str, loaded: Scenario, goal: Goal, limits: Limits) -> Hin
     if not goal_blocks:  # a raw reply: hints for whatever goal is asked
         parsed = parse_reply(text)
         if not parsed.found:
-            raise InputError(f"{source}: {_NO_HINTS}")
+            raise InputError(f"{path}: {_NO_HINTS}")
         return parsed.hints
     for block, goal_text in goal_blocks:
         if _goal_key(loaded, goal_text) == frozenset(goal.disjuncts):
             parsed = parse_reply(block)
             if not parsed.found:
-                raise InputError(f"{source}: the record for the goal {goal} has {_NO_HINTS}")
+                raise InputError(f"{path}: the record for the goal {goal} has {_NO_HINTS}")
             if problem is not None:
                 log.warning(
-                    "%s is not a valid dataset file (%s); using its record for the goal %s", source, problem, goal
+                    "%s is not a valid dataset file (%s); using its record for the goal %s", path, problem, goal
                 )
             return parsed.hints
     reason = f" (and it is not a valid dataset file: {problem})" if problem is not None else ""
-    raise InputError(f"{source}: {_none_has(len(goal_blocks), goal)}{reason}")
+    raise InputError(f"{path}: {_none_has(len(goal_blocks), goal)}{reason}")
 
 
 def _none_has(count: int, goal: Goal) -> str:

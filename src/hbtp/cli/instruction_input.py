@@ -1,8 +1,10 @@
 """``hbtp plan --instruction TEXT``: the goal an instruction means, asked of the LLM and checked.
 
 The backend is ``--llm`` (``local`` when not given; ``oracle`` answers the instruction dataset's
-recorded goals); the chosen goal replaces ``-g`` and planning proceeds as usual (with the LLM loop
-only when ``--llm`` was given). No acceptable goal: exit 2, the attempts in ``--json``.
+recorded goals); the chosen goal replaces ``-g``. Planning then asks the same backend (the same
+loaded model) for hints only where they can pay, as ``--llm auto`` decides: when ``--llm`` was
+given and LLM-free planning finds no verdict in ``--auto-probe`` seconds. No acceptable goal:
+exit 2, the attempts in ``--json``; no time left for it: exit 1.
 """
 
 from __future__ import annotations
@@ -14,10 +16,11 @@ import click
 
 from hbtp.cli.goal_input import read_goal
 from hbtp.cli.options import echo_json
+from hbtp.deadline import Deadline, TimeLimitReached
 from hbtp.domains import Scenario
-from hbtp.errors import InputError
+from hbtp.errors import BackendTimeLimit, InputError
 from hbtp.files import InputKind
-from hbtp.llm.backends.registry import BackendOptions, make_goal_backend
+from hbtp.llm.backend import Backend
 from hbtp.pipeline.instruct import GoalChoice, InstructOptions, goal_from_instruction, instruction_pool
 
 log = logging.getLogger(__name__)
@@ -27,26 +30,34 @@ INSTRUCTION_HELP = (
     "turns it into a checked goal. @FILE reads it from a file, @- from standard input."
 )
 
+_ASKING = "asking for the goal of the instruction"
+
 #: The backend that reads instructions when ``--llm`` is not given.
 DEFAULT_INSTRUCTION_BACKEND = "local"
 
 
 def choose_goal(
-    loaded: Scenario, text: str, spec: str | None, backend: BackendOptions, *, rounds: int, as_json: bool
+    loaded: Scenario, text: str, llm: Backend, options: InstructOptions, deadline: Deadline | None, *, as_json: bool
 ) -> GoalChoice:
-    """The goal of the instruction ``text`` (``@FILE`` read) in ``loaded``, or an :class:`InputError`
-    (after printing the attempts with ``as_json``) when no proposal is acceptable."""
+    """The goal of the instruction ``text`` (``@FILE`` read) in ``loaded`` asked of ``llm`` (left
+    open: it may serve the hints too) within ``deadline``, or an :class:`InputError` (after printing
+    the attempts with ``as_json``) when no proposal is acceptable, :class:`TimeLimitReached` when
+    the time ran out first."""
     instruction = read_goal(text, InputKind.INSTRUCTION)
-    llm = make_goal_backend(spec or DEFAULT_INSTRUCTION_BACKEND, loaded, replace(backend, record=backend.record))
+    if deadline is not None:
+        deadline.check(_ASKING)
+        options = replace(options, time_limit=deadline.remaining())
     try:
-        choice = goal_from_instruction(
-            loaded, instruction, llm, instruction_pool(loaded), InstructOptions(rounds=rounds, seed=backend.seed)
-        )
-    finally:
-        llm.close()
+        choice = goal_from_instruction(loaded, instruction, llm, instruction_pool(loaded), options)
+    except BackendTimeLimit as error:
+        if deadline is None:
+            raise
+        raise TimeLimitReached(f"{deadline.message(_ASKING)} ({error})") from None
     if choice.goal is None:
         if as_json:
             echo_json({"status": "no-goal", "scenario": loaded.name, "instruction": choice.to_dict()})
+        if deadline is not None:
+            deadline.check(_ASKING)
         raise InputError(choice.message)
     if not as_json:
         click.echo(

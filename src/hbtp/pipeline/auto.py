@@ -26,7 +26,7 @@ from hbtp.logic.task import Goal
 from hbtp.pipeline.loop import LoopOptions, run_hbtp
 from hbtp.pipeline.results import LoopResult
 from hbtp.planning.limits import Limits
-from hbtp.planning.planners import plan
+from hbtp.planning.planners import Space, plan
 from hbtp.planning.result import PlanResult, Status
 
 __all__ = ["DEFAULT_PROBE_SECONDS", "AutoResult", "BackendFactory", "plan_auto"]
@@ -94,7 +94,7 @@ def plan_auto(
         scenario.task,
         resolved,
         options.planner,
-        space="full",
+        space=Space.FULL,
         mutexes=scenario.mutexes,  # plan() re-checks a failure without declared mutexes: a verdict is a proof
         heuristic=options.fallback_heuristic,
         limits=Limits(time_s=budget),

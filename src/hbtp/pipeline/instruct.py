@@ -29,7 +29,7 @@ from typing import Any
 
 from hbtp.datasets.instructions import load_instructions
 from hbtp.domains.scenarios import Scenario
-from hbtp.errors import InputError
+from hbtp.errors import BackendTimeLimit, InputError
 from hbtp.llm.backend import Backend, PromptStyle, Request
 from hbtp.llm.goal_prompt import (
     STOPWORDS,
@@ -163,7 +163,8 @@ def goal_from_instruction(
     """Ask ``backend`` for the goal of ``instruction`` in ``scenario`` (see the module docstring).
 
     Raises :class:`InputError` for an empty instruction or one about nothing the domain knows, and
-    :class:`BackendError` when the model cannot be asked at all.
+    :class:`BackendError` when the model cannot be asked at all (:class:`BackendTimeLimit` when the
+    time given was too short for even one answer).
     """
     text = " ".join(instruction.split())
     if not text:
@@ -184,7 +185,13 @@ def goal_from_instruction(
             task, text, examples, rejected, constrain=options.constrain, round_number=number, seed=options.seed
         )
         request = _limited(request, left)
-        reply = backend.complete(request)
+        try:
+            reply = backend.complete(request)
+        except BackendTimeLimit:
+            if not attempts:
+                raise
+            log.info("instruction round %d: no time left to ask again", number)
+            break
         spent += reply.seconds
         proposed = goal_reply(reply.text)
         verdict = check_goal(scenario, proposed) if proposed else Verdict(("no goal in the reply",))
@@ -216,11 +223,15 @@ def _cover(
         offered = [a for a in atoms if missing in a.args and a not in literals]
         if missing in used or not offered or time.perf_counter() >= deadline:
             continue
-        reply = backend.complete(
-            _limited(
-                continuation_request(request, goal, offered, scenario.task.categories), deadline - time.perf_counter()
+        try:
+            reply = backend.complete(
+                _limited(
+                    continuation_request(request, goal, offered, scenario.task.categories),
+                    deadline - time.perf_counter(),
+                )
             )
-        )
+        except BackendTimeLimit:
+            break
         spent += reply.seconds
         literal = goal_reply(reply.text)
         longer = f"{goal} & {literal}" if literal else goal

@@ -46,7 +46,7 @@ from hbtp.pipeline.results import REPEATED, Exchange, LoopResult, Outcome, Round
 from hbtp.planning.heuristics import DEFAULT_HEURISTIC, HeuristicName
 from hbtp.planning.hints import Hints, pruned_action_space, resolve_hints
 from hbtp.planning.limits import Limits
-from hbtp.planning.planners import confirmed_search, plan, planner_config
+from hbtp.planning.planners import Space, confirmed_search, plan, planner_config
 from hbtp.planning.result import PlanResult, Status
 from hbtp.planning.search import search
 
@@ -317,7 +317,7 @@ class _Loop:
             goal,
             self.options.planner,
             hints=resolve_hints(whole.task, self.hints),
-            space="full",
+            space=Space.FULL,
             mutexes=whole.mutexes.proved_only(),
             heuristic=self.options.fallback_heuristic,
             limits=Limits(time_s=min(self.options.fallback_time_limit, self.left())),

@@ -43,18 +43,28 @@ from typing import Literal, Protocol, overload
 
 from hbtp import compiled as extensions
 from hbtp.deadline import Deadline
+from hbtp.errors import InputError
 from hbtp.logic.task import GroundAction, GroundTask
 from hbtp.planning.flow import StateEquation
 from hbtp.planning.lmcut import LmCut
 from hbtp.planning.pairs import COMPILED, PairCosts, cheap_kernel, mask_bytes, pair_costs
 
 HeuristicName = Literal["none", "hmax", "lm", "lmcut", "seq"]
-HEURISTICS: tuple[str, ...] = ("none", "hmax", "lm", "lmcut", "seq")
+_BY_NAME: dict[str, HeuristicName] = {"none": "none", "hmax": "hmax", "lm": "lm", "lmcut": "lmcut", "seq": "seq"}
+HEURISTICS: tuple[str, ...] = tuple(_BY_NAME)
 #: The heuristic hbtp plans with unless told otherwise (``hbtp plan``, :func:`hbtp.planning.plan`,
 #: re-planning): landmarks, admissible, so OBTEA stays optimal. The paper's planners had none; its
 #: benchmarks say ``none`` where they reproduce them.
 DEFAULT_HEURISTIC: HeuristicName = "lm"
 _SETUP = "setting up the heuristic"
+
+
+def heuristic_named(text: str) -> HeuristicName:
+    """``text`` as a heuristic's name (:class:`~hbtp.errors.InputError` for another)."""
+    try:
+        return _BY_NAME[text]
+    except KeyError:
+        raise InputError(f"unknown heuristic {text!r}; choose one of: {', '.join(HEURISTICS)}") from None
 
 
 class Heuristic(Protocol):

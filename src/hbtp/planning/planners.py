@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import dataclasses
+import enum
 import logging
 from collections.abc import Sequence
-from typing import Literal
 
 from hbtp.domains.mutex import Mutexes
 from hbtp.errors import InputError
@@ -39,7 +39,14 @@ PLANNER_DESCRIPTIONS = {
     "hbtp-o": "HBTP-O: heuristic path discounted by 1/alpha (optimal when p-hat has no wrong actions)",
     "hbtp-s": "HBTP-S: heuristic path actions cost 0 while owed (fastest, satisficing)",
 }
-Space = Literal["full", "pruned"]
+
+
+class Space(enum.StrEnum):
+    """The action space a search explores: every action, or A⁻ built from the hints."""
+
+    FULL = "full"
+    PRUNED = "pruned"
+
 
 log = logging.getLogger(__name__)
 
@@ -81,7 +88,7 @@ def plan(
     planner: str | SearchConfig = "hbtp-s",
     *,
     hints: Hints | ResolvedHints | None = None,
-    space: Space = "full",
+    space: Space = Space.FULL,
     mutexes: Mutexes | None = None,
     heuristic: HeuristicName | None = None,
     alpha: Number = DEFAULT_ALPHA,
@@ -93,7 +100,7 @@ def plan(
     ``planner`` is a planner's name, with ``heuristic`` (default :data:`DEFAULT_HEURISTIC`, as
     ``hbtp plan``) and ``alpha``, or a :class:`SearchConfig` from :func:`planner_config`, which
     holds them and the rarer options (``symmetry``).
-    ``space="pruned"`` searches A⁻ = (Q⁻ × O⁻) ∩ A built from the hints; ``"full"`` every action.
+    ``space=Space.PRUNED`` searches A⁻ = (Q⁻ × O⁻) ∩ A built from the hints; ``Space.FULL`` every action.
     Hints naming unknown actions, predicates or objects are reported in the log and ignored.
     ``extra_expansions`` explores that many more conditions after the solution (a more reactive tree).
     """
@@ -111,11 +118,11 @@ def plan(
         resolved = hints
     else:
         resolved = resolve_hints(task, hints)
-    if space == "pruned":
+    if space == Space.PRUNED:
         if resolved is None:
             raise InputError("a pruned action space needs hints (heuristic path, predicates, objects)")
         actions = task.restricted(pruned_action_space(task, resolved))
-    elif space == "full":
+    elif space == Space.FULL:
         actions = task.actions
     else:
         raise InputError(f"unknown action space {space!r}; choose full or pruned")

@@ -35,7 +35,7 @@ from pathlib import Path
 from types import ModuleType, TracebackType
 from typing import Any
 
-from hbtp.errors import BackendError
+from hbtp.errors import BackendError, BackendTimeLimit
 from hbtp.llm.backend import PromptStyle, Reply, Request
 
 log = logging.getLogger(__name__)
@@ -233,12 +233,18 @@ def make_params(
 def start_server(xllamacpp: ModuleType, params: Any, *, what: str) -> Any:
     """``xllamacpp.Server(params)`` (loads the model, starts the listener) with llama.cpp's failure explained."""
     try:
-        return xllamacpp.Server(params)
+        server = xllamacpp.Server(params)
     except RuntimeError as error:
         raise BackendError(
             f"llama.cpp could not start {what} ({error}): the file may not be a model llama.cpp supports, "
             "memory may be short, or the port may be taken; set HBTP log level DEBUG to see llama.cpp's log"
         ) from None
+    # The server's task loop starts on its own thread after the constructor returns. A server freed
+    # before that loop has started waits for ever in its destructor (the loop misses the stop and
+    # then runs), which a call refused at once for lack of time did. One token answered proves the
+    # loop runs (about 50 ms).
+    server.handle_completions({"prompt": "\n", "max_tokens": 1, "temperature": 0, "cache_prompt": False})
+    return server
 
 
 def reply_from_result(result: Any, seconds: float, *, model: str, endpoint: str = "completions") -> Reply:
@@ -281,6 +287,42 @@ def reply_from_result(result: Any, seconds: float, *, model: str, endpoint: str 
 
 def _dict(value: Any) -> dict[str, Any]:
     return value if isinstance(value, dict) else {}
+
+
+#: Characters per token assumed to estimate a prompt's length before it is read (Gemma's tokenizer
+#: averages about 4 on hbtp's prompts; 3 keeps the estimate on the high side).
+CHARACTERS_PER_TOKEN = 3.0
+#: Prompt tokens per second assumed before the first answer says (2 busy cores read 150-600).
+FIRST_PROMPT_RATE = 150.0
+
+
+def _streamed(server: Any, body: dict[str, Any], deadline: float | None) -> dict[str, Any]:
+    """llama.cpp's answer to ``body`` read as a stream, stopped at ``deadline``
+    (:class:`BackendError`): the text of its chunks, with the last chunk's usage and timings."""
+    texts: list[str] = []
+    final: dict[str, Any] = {}
+    stopped = False
+
+    def take(chunk: Any) -> bool:
+        nonlocal stopped
+        if not isinstance(chunk, dict) or not isinstance(chunk.get("choices"), list) or not chunk["choices"]:
+            final.clear()
+            final.update(chunk if isinstance(chunk, dict) else {"error": {"message": str(chunk)}})
+            return True
+        choice = chunk["choices"][0]
+        texts.append(str(choice.get("text") or ""))
+        final.update({key: value for key, value in chunk.items() if key != "choices"})
+        final["finish_reason"] = choice.get("finish_reason")
+        stopped = deadline is not None and final["finish_reason"] is None and time.perf_counter() >= deadline
+        return stopped
+
+    server.handle_completions({**body, "stream": True, "stream_options": {"include_usage": True}}, take)
+    if stopped:
+        raise BackendTimeLimit("the local model did not finish in the time left: stopped")
+    if "error" in final:
+        return final
+    reason = final.pop("finish_reason", None)
+    return {**final, "choices": [{"text": "".join(texts), "finish_reason": reason}]}
 
 
 def merged_stops(stops: tuple[str, ...]) -> list[str]:
@@ -333,6 +375,8 @@ class LocalBackend:
         self.load_seconds: float | None = None
         self._server: Any = None
         self._lock = threading.Lock()
+        #: Prompt tokens read per second: a cautious guess, then the last answer's (see _check_time).
+        self.prompt_rate = FIRST_PROMPT_RATE
 
     def load(self) -> None:
         """Load the model now (assembling the default GGUF first if needed); no-op when loaded."""
@@ -363,17 +407,26 @@ class LocalBackend:
         return self._server is not None
 
     def complete(self, request: Request) -> Reply:
-        """Continue ``request.completion_prompt``; raises :class:`BackendError` on any failure."""
+        """Continue ``request.completion_prompt``; raises :class:`BackendError` on any failure.
+
+        ``request.time_limit`` bounds the call: one that cannot finish in it is not started (a
+        prompt that would take longer to read than the time left, at the speed of the last
+        answers), and one that runs past it is stopped (:class:`BackendError` either way)."""
         prompt = request.completion_prompt
         if not prompt.strip():
             raise BackendError(
                 "the local model needs a completion-style prompt, but request.completion_prompt is empty"
             )
+        called = time.perf_counter()
+        if request.time_limit is not None and request.time_limit <= 0:
+            raise BackendTimeLimit("no time was left to ask the local model")
         loaded_here = not self.loaded
         self.load()
         server = self._server
         if server is None:  # closed from another thread meanwhile
             raise BackendError("the local model was closed while a request was waiting")
+        deadline = None if request.time_limit is None else called + request.time_limit
+        self._check_time(prompt, deadline)
         body: dict[str, Any] = {
             "prompt": prompt,
             "max_tokens": request.max_tokens,
@@ -387,8 +440,9 @@ class LocalBackend:
         if request.constraint is not None and self.constrain:
             body["grammar"] = request.constraint.gbnf
         started = time.perf_counter()
-        result = self._answer(server, body)
+        result = self._answer(server, body, deadline)
         reply = reply_from_result(result, time.perf_counter() - started, model=str(self.model_path))
+        self._learn_speed(reply)
         reply.meta["constrained"] = "grammar" in body and self.constrain
         if loaded_here and self.load_seconds is not None:
             reply.meta["load_seconds"] = round(self.load_seconds, 3)
@@ -397,19 +451,39 @@ class LocalBackend:
         )
         return reply
 
-    def _answer(self, server: Any, body: dict[str, Any]) -> Any:
+    def _answer(self, server: Any, body: dict[str, Any], deadline: float | None) -> Any:
         """llama.cpp's answer to ``body``; a grammar it refuses is dropped (once, with a warning)
         and the request answered as free text, which the grammar checker reads as before."""
         try:
-            result = server.handle_completions(body)
+            result = _streamed(server, body, deadline)
             error = result.get("error") if isinstance(result, dict) else None
             if "grammar" in body and error is not None and "grammar" in str(error).lower():
                 log.warning("llama.cpp refused the reply grammar (%s); answering without constraints", error)
                 self.constrain = False
-                result = server.handle_completions({k: v for k, v in body.items() if k != "grammar"})
+                result = _streamed(server, {k: v for k, v in body.items() if k != "grammar"}, deadline)
+        except BackendError:
+            raise
         except Exception as error:  # the binding raises plain exceptions; report them as backend failures
             raise BackendError(f"the local model failed: {type(error).__name__}: {error}") from None
         return result
+
+    def _check_time(self, prompt: str, deadline: float | None) -> None:
+        """Refuse a call whose prompt alone would take longer to read than the time left."""
+        if deadline is None:
+            return
+        left = deadline - time.perf_counter()
+        needed = len(prompt) / CHARACTERS_PER_TOKEN / self.prompt_rate
+        if needed > left:
+            raise BackendTimeLimit(
+                f"the local model would need about {needed:.1f} s to read the prompt, and {max(left, 0):.1f} s "
+                "are left: not asked"
+            )
+
+    def _learn_speed(self, reply: Reply) -> None:
+        """Keep the prompt-reading speed of the last answer (tokens per second) for :meth:`_check_time`."""
+        rate = reply.meta.get("prompt_per_second")
+        if isinstance(rate, (int, float)) and rate > 0:
+            self.prompt_rate = float(rate)
 
     def close(self) -> None:
         """Free the model (a later :meth:`complete` loads it again)."""

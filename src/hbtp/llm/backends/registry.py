@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,17 +19,58 @@ BACKENDS = ("local", "openai", "oracle", "noisy-oracle", "replay:FILE")
 AUTO = "auto"
 
 
-def auto_backend(spec: str) -> str | None:
-    """The backend of ``auto:BACKEND`` (``auto``: ``local``), or ``None`` when ``spec`` is not auto."""
-    if spec == AUTO:
-        return "local"
-    if not spec.startswith(AUTO + ":"):
-        return None
-    inner = spec.removeprefix(AUTO + ":")
-    known = inner in BACKENDS[:-1] or (inner.startswith("replay:") and inner != "replay:")
-    if not known:  # checked now: the backend may never be built
-        raise InputError(f"auto needs a backend: auto:BACKEND with one of {', '.join(BACKENDS)}, not {spec!r}")
-    return inner
+class BackendKind(enum.Enum):
+    """The backends hbtp can ask."""
+
+    LOCAL = "local"
+    OPENAI = "openai"
+    ORACLE = "oracle"
+    NOISY_ORACLE = "noisy-oracle"
+    REPLAY = "replay"
+
+    @property
+    def is_model(self) -> bool:
+        """A model (or its recorded replies), as opposed to an oracle that plans its answers."""
+        return self in (BackendKind.LOCAL, BackendKind.OPENAI, BackendKind.REPLAY)
+
+
+@dataclass(frozen=True)
+class LlmSpec:
+    """What ``--llm`` names, read once at the command line: a backend (``replay`` with its file),
+    and whether it is asked in auto mode (only when LLM-free planning finds no verdict in time)."""
+
+    kind: BackendKind
+    replay_file: Path | None = None
+    auto: bool = False
+
+    @classmethod
+    def parse(cls, text: str) -> LlmSpec:
+        """``local``, ``openai``, ``oracle``, ``noisy-oracle``, ``replay:FILE``, ``auto`` (``auto:local``)
+        or ``auto:BACKEND``; anything else is an :class:`InputError`."""
+        auto = text == AUTO or text.startswith(AUTO + ":")
+        inner = "local" if text == AUTO else text.removeprefix(AUTO + ":") if auto else text
+        if inner.startswith("replay:") and inner != "replay:":
+            return cls(BackendKind.REPLAY, Path(inner.removeprefix("replay:")), auto)
+        if inner in ("replay", "replay:"):
+            raise InputError("replay needs a file: --llm replay:FILE")
+        try:
+            kind = BackendKind(inner)
+        except ValueError:
+            if auto:
+                raise InputError(
+                    f"auto needs a backend: auto:BACKEND with one of {', '.join(BACKENDS)}, not {text!r}"
+                ) from None
+            raise InputError(f"unknown LLM backend {text!r}; choose one of: {', '.join(BACKENDS)}") from None
+        return cls(kind, None, auto)
+
+    @property
+    def backend(self) -> LlmSpec:
+        """The backend alone (not in auto mode)."""
+        return LlmSpec(self.kind, self.replay_file)
+
+    def __str__(self) -> str:
+        name = f"replay:{self.replay_file}" if self.kind is BackendKind.REPLAY else self.kind.value
+        return f"{AUTO}:{name}" if self.auto else name
 
 
 @dataclass(frozen=True)
@@ -47,18 +89,21 @@ class BackendOptions:
     constrain: bool = True  # send the reply's grammar (local) or JSON schema (openai)
 
 
-def make_backend(spec: str, scenario: Scenario, options: BackendOptions = BackendOptions()) -> Backend:
+def make_backend(spec: LlmSpec | str, scenario: Scenario, options: BackendOptions = BackendOptions()) -> Backend:
     """The backend named ``spec`` (see :data:`BACKENDS`), optionally recording to ``options.record``."""
+    spec = spec if isinstance(spec, LlmSpec) else LlmSpec.parse(spec)
+    if spec.auto:
+        raise InputError(f"{spec} is a mode of hbtp plan --llm, not a backend; give the backend alone")
     backend: Backend
-    if spec == "oracle":
+    kind = spec.kind
+    if kind is BackendKind.ORACLE:
         backend = OracleBackend(scenario)
-    elif spec == "noisy-oracle":
+    elif kind is BackendKind.NOISY_ORACLE:
         backend = NoisyOracleBackend(scenario, drop=options.drop, insert=options.insert, seed=options.seed)
-    elif spec.startswith("replay:"):
-        backend = ReplayBackend(Path(spec.removeprefix("replay:")))
-    elif spec == "replay":
-        raise InputError("replay needs a file: --llm replay:FILE")
-    elif spec == "openai":
+    elif kind is BackendKind.REPLAY:
+        assert spec.replay_file is not None
+        backend = ReplayBackend(spec.replay_file)
+    elif kind is BackendKind.OPENAI:
         from hbtp.llm.backends.openai_backend import OpenAIBackend
 
         backend = OpenAIBackend(
@@ -68,7 +113,7 @@ def make_backend(spec: str, scenario: Scenario, options: BackendOptions = Backen
             timeout=options.timeout,
             response_format=options.constrain,
         )
-    elif spec == "local":
+    else:
         from hbtp.llm.backends.local import LocalBackend
 
         backend = LocalBackend(
@@ -78,23 +123,21 @@ def make_backend(spec: str, scenario: Scenario, options: BackendOptions = Backen
             prompt_cache=options.prompt_cache,
             constrain=options.constrain,
         )
-    elif auto_backend(spec) is not None:
-        raise InputError(f"{spec} is a mode of hbtp plan --llm, not a backend; give the backend alone")
-    else:
-        raise InputError(f"unknown LLM backend {spec!r}; choose one of: {', '.join(BACKENDS)}")
     if options.record:
         backend = RecordingBackend(backend, options.record)
     return backend
 
 
-def make_goal_backend(spec: str, scenario: Scenario, options: BackendOptions = BackendOptions()) -> Backend:
+def make_goal_backend(spec: LlmSpec | str, scenario: Scenario, options: BackendOptions = BackendOptions()) -> Backend:
     """The backend that turns instructions into goals: ``oracle`` answers the instruction dataset's
-    recorded goal; a model backend (``local``, ``openai``, ``replay:FILE``) as :func:`make_backend`."""
-    if spec == "noisy-oracle" or auto_backend(spec) is not None:
+    recorded goal; a model backend (``local``, ``openai``, ``replay:FILE``) as :func:`make_backend`.
+    ``auto:BACKEND`` reads the instruction with BACKEND (auto mode is about the hints)."""
+    spec = (spec if isinstance(spec, LlmSpec) else LlmSpec.parse(spec)).backend
+    if spec.kind is BackendKind.NOISY_ORACLE:
         raise InputError(
             f"--llm {spec} answers plans, not goals; for --instruction choose local, openai, oracle or replay:FILE"
         )
-    if spec != "oracle":
+    if spec.kind is not BackendKind.ORACLE:
         return make_backend(spec, scenario, options)
     backend: Backend = InstructionOracle(scenario)
     return RecordingBackend(backend, options.record) if options.record else backend
