@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import re
 import shutil
+import struct
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -13,7 +14,7 @@ from hbtp.bt import Action, Condition, Fallback, Node, Sequence, size, tree_of
 from hbtp.bt.export import write_export
 from hbtp.bt.graphviz import find_dot, render_bytes, tree_to_dot
 from hbtp.bt.mermaid import escape_label, tree_to_mermaid
-from hbtp.domains import DomainBuilder, load_scenario
+from hbtp.domains import DomainBuilder, Scenario, load_scenario
 from hbtp.errors import InputError
 from hbtp.logic.task import GroundTask
 from hbtp.planning import plan
@@ -136,3 +137,17 @@ def test_mermaid_escapes_labels(tiny: tuple[GroundTask, Node]) -> None:
     text = tree_to_mermaid(tree, task)
     assert '(["true"]):::condition' in text
     assert '(["At(a)<br/>Rested()"]):::condition' in text
+
+
+@needs_dot
+def test_a_path_tree_is_drawn_readable_at_full_size(robothow: Scenario) -> None:
+    # Left to right, the branches stacked: the README's 7-action tree was 3,192 x 370 px top-down,
+    # far too wide to read at 100 %.
+    from hbtp.bt import tree_of
+    from hbtp.planning import plan
+
+    result = plan(robothow.task, "IsIn_milk_fridge & IsClose_fridge", "obtea", mutexes=robothow.mutexes)
+    picture = render_bytes(tree_to_dot(tree_of(result, "path"), robothow.task), "png")
+    width, height = struct.unpack(">II", picture[16:24])
+    assert width <= 800, (width, height)
+    assert height > width

@@ -37,7 +37,7 @@ def tree_to_dot(tree: Node, task: GroundTask, *, name: str = "behavior_tree") ->
     """The tree as a DOT digraph (deterministic; children keep their order left to right)."""
     lines = [
         f"digraph {_quote(name)} {{",
-        "  graph [ordering=out, rankdir=TB, nodesep=0.25, ranksep=0.4];",
+        "  graph [ordering=out, rankdir=LR, nodesep=0.15, ranksep=0.3];",
         '  node [fontname="Helvetica", fontsize=11, margin="0.12,0.06"];',
         "  edge [arrowhead=none];",
     ]
