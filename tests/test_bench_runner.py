@@ -138,3 +138,32 @@ def test_ray_kills_a_runaway_run(tmp_path: Path) -> None:
     rows = {row["n"]: row for row in results.rows.values()}
     assert rows[2]["status"] == "killed"
     assert all(rows[n]["square"] == n * n for n in (0, 1, 3))
+
+
+def test_a_pool_that_breaks_is_replaced_and_its_runs_run_again(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # pebble can raise BrokenProcessPool ("All workers expired") when a worker dies unseen: the
+    # runs it held go to a new pool instead of ending the benchmark.
+    from concurrent.futures.process import BrokenProcessPool
+
+    from hbtp.bench import runner
+
+    real = runner.ProcessPool
+    pools: list[Any] = []
+
+    class BreaksOnce(real):  # type: ignore[misc, valid-type]
+        def schedule(self, *args: Any, **kwargs: Any) -> Any:
+            if len(pools) == 1 and getattr(self, "scheduled", 0) == 2:
+                raise BrokenProcessPool("All workers expired")
+            self.scheduled = getattr(self, "scheduled", 0) + 1
+            return super().schedule(*args, **kwargs)
+
+    def make(*args: Any, **kwargs: Any) -> Any:
+        pool = BreaksOnce(*args, **kwargs)
+        pools.append(pool)
+        return pool
+
+    monkeypatch.setattr(runner, "ProcessPool", make)
+    results = ResultsFile(tmp_path / "results.jsonl", ("n",))
+    run_work(square, work_of(range(5)), results, Execution(jobs=2, progress=False), kill_after=60, description="t")
+    assert len(pools) == 2
+    assert {row["n"]: row["square"] for row in results.rows.values()} == {n: n * n for n in range(5)}

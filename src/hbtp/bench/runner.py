@@ -29,6 +29,7 @@ import os
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, wait
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -42,6 +43,9 @@ log = logging.getLogger(__name__)
 
 ExecutorName = Literal["inline", "local", "ray"]
 EXECUTORS: tuple[ExecutorName, ...] = ("local", "inline", "ray")
+#: New worker pools a local run may start after pebble lost track of a dead worker (see _run_local).
+MAX_POOL_RESTARTS = 3
+
 #: A module-level function (picklable) from a spec to its row, or rows.
 RunFunction = Callable[[Any], dict[str, Any] | list[dict[str, Any]]]
 
@@ -188,25 +192,52 @@ def _run_local(
     pool replaces either worker and the other runs go on undisturbed."""
     queue = list(reversed(pending))
     running: dict[Future[Any], tuple[Work, float]] = {}
-    pool = ProcessPool(max_workers=jobs, context=_context())
-    try:
-        while queue or running:
-            while queue and len(running) < jobs:  # so a run's clock starts when a worker is free for it
-                item = queue.pop()
-                bar.starting(item)
-                running[pool.schedule(function, (item.spec,), timeout=limit)] = (item, time.monotonic())
-            done, _ = wait(running, return_when=FIRST_COMPLETED)
-            for future in done:
-                item, started = running.pop(future)
-                _store(results, _local_rows(future, item, time.monotonic() - started, limit))
-                bar.update(1)
-    finally:
-        # pebble leaves stop() and close() unannotated
-        if running:
-            pool.stop()  # type: ignore[no-untyped-call]
-        else:
-            pool.close()  # type: ignore[no-untyped-call]
-        pool.join()
+    for restart in range(MAX_POOL_RESTARTS + 1):
+        pool = ProcessPool(max_workers=jobs, context=_context())
+        try:
+            _drain(function, pool, queue, running, results, jobs, limit, bar)
+            return
+        except BrokenProcessPool:
+            # pebble can lose track of a worker that died (it then finds no run to charge): the
+            # runs it held are run again in a new pool, a bounded number of times.
+            if restart == MAX_POOL_RESTARTS:
+                raise
+            log.warning("the worker pool broke; running its %d unfinished run(s) again in a new pool", len(running))
+            queue.extend(item for item, _ in running.values())
+            running.clear()
+        finally:
+            # pebble leaves stop() and close() unannotated
+            if running:
+                pool.stop()  # type: ignore[no-untyped-call]
+            else:
+                pool.close()  # type: ignore[no-untyped-call]
+            pool.join()
+
+
+def _drain(
+    function: RunFunction,
+    pool: ProcessPool,
+    queue: list[Work],
+    running: dict[Future[Any], tuple[Work, float]],
+    results: ResultsFile,
+    jobs: int,
+    limit: float,
+    bar: _Progress,
+) -> None:
+    """Run the ``queue`` in ``pool``, ``jobs`` at a time (``running``: what the pool holds now)."""
+    while queue or running:
+        while queue and len(running) < jobs:  # so a run's clock starts when a worker is free for it
+            item = queue[-1]
+            bar.starting(item)
+            running[pool.schedule(function, (item.spec,), timeout=limit)] = (item, time.monotonic())
+            queue.pop()  # (only once scheduled: a broken pool leaves it queued)
+        done, _ = wait(running, return_when=FIRST_COMPLETED)
+        for future in done:
+            item, started = running[future]
+            rows = _local_rows(future, item, time.monotonic() - started, limit)
+            del running[future]
+            _store(results, rows)
+            bar.update(1)
 
 
 def _local_rows(future: Future[Any], item: Work, seconds: float, limit: float) -> dict[str, Any] | list[dict[str, Any]]:
