@@ -61,7 +61,8 @@ def _ok(code: int, err: str) -> None:
     errors = [line for line in err.splitlines() if line.startswith("hbtp: error:")]
     assert len(errors) <= 1, err
     if code == 2:
-        assert len(errors) == 1 and len([line for line in err.splitlines() if line.strip()]) == 1, err
+        assert len(errors) == 1, err
+        assert len([line for line in err.splitlines() if line.strip()]) == 1, err
 
 
 @FUZZ
