@@ -127,3 +127,74 @@ def test_docs_architecture_names_every_module() -> None:
         if path.stem not in ("__init__", "__main__") and path.stem not in words
     ]
     assert missing == [], f"docs/architecture.md does not name: {missing}"
+
+
+#: The module-level mutable state the package keeps, each with its owner and bound. Anything else
+#: (a module-level dict, list or set, or an unbounded functools.cache) fails the test below.
+KEPT_STATE = {
+    "compiled.py:_warned": "one entry per optional C extension (four)",
+    "llm/redact.py:_secrets": "the secrets to redact, at most MAX_SECRETS",
+    "bench/table2.py:_BACKENDS": "a worker's backends, at most BACKENDS_KEPT",
+    "bench/payoff.py:_BACKEND": "a worker's one backend",
+    "bt/pytrees_export.py:cache": "one table of the BT.CPP names, computed once",
+    "domains/scenarios.py:cache": "the manifest of the shipped scenarios, read once",
+    "datasets/shipped.py:cache": "the shipped datasets' names and records (a fixed, shipped set)",
+    "datasets/instructions.py:cache": "the shipped instruction datasets (a fixed, shipped set)",
+}
+
+
+_MUTATORS = {
+    "append",
+    "add",
+    "update",
+    "pop",
+    "popitem",
+    "clear",
+    "setdefault",
+    "extend",
+    "insert",
+    "remove",
+    "discard",
+}
+
+
+def _mutated_names(tree: object) -> set[str]:
+    """The names a module changes in place: ``X[k] = v``, ``del X[k]``, ``X.append(...)`` and the like."""
+    import ast
+
+    names: set[str] = set()
+    for node in ast.walk(tree):  # type: ignore[arg-type]
+        targets = node.targets if isinstance(node, ast.Assign | ast.Delete) else [getattr(node, "target", None)]
+        for target in targets:
+            if isinstance(target, ast.Subscript) and isinstance(target.value, ast.Name):
+                names.add(target.value.id)
+        call = node.func if isinstance(node, ast.Call) else None
+        if isinstance(call, ast.Attribute) and call.attr in _MUTATORS and isinstance(call.value, ast.Name):
+            names.add(call.value.id)
+    return names
+
+
+def test_module_level_state_has_an_owner_and_a_bound() -> None:
+    # A module-level dict, list or set that its module changes, or an unbounded cache, is process-
+    # wide state: it must be listed in KEPT_STATE with its owner and bound (constant tables pass).
+    import ast
+
+    package = ROOT / "src" / "hbtp"
+    found: list[str] = []
+    for path in sorted(package.rglob("*.py")):
+        where = path.relative_to(package).as_posix()
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        mutated = _mutated_names(tree)
+        for node in tree.body:
+            target = node.targets[0] if isinstance(node, ast.Assign) else getattr(node, "target", None)
+            value = getattr(node, "value", None)
+            mutable = isinstance(value, ast.Dict | ast.List | ast.Set) or (
+                isinstance(value, ast.Call) and getattr(value.func, "id", "") in ("dict", "list", "set")
+            )
+            if isinstance(target, ast.Name) and mutable and target.id in mutated:
+                found.append(f"{where}:{target.id}")
+            if isinstance(node, ast.FunctionDef):
+                for decorator in node.decorator_list:
+                    if ast.unparse(decorator) in ("functools.cache", "cache", "functools.lru_cache(maxsize=None)"):
+                        found.append(f"{where}:cache")
+    assert sorted(set(found) - set(KEPT_STATE)) == [], "module-level state without an owner and a bound"

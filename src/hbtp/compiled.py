@@ -17,6 +17,7 @@ from types import ModuleType
 from hbtp.errors import PlanningError
 
 log = logging.getLogger(__name__)
+#: The extensions already warned about (at most the four above: one warning each per process).
 _warned: set[str] = set()
 
 #: The optional extensions (module names under ``hbtp``).

@@ -37,6 +37,7 @@ from pebble import ProcessExpired, ProcessPool
 from tqdm import tqdm
 
 from hbtp.bench.results import ResultsFile
+from hbtp.collector import searches_frozen
 from hbtp.errors import BackendError, InputError
 
 log = logging.getLogger(__name__)
@@ -184,6 +185,13 @@ def _context() -> Any:
     return multiprocessing.get_context(method)
 
 
+def in_worker(function: RunFunction, spec: Any) -> dict[str, Any] | list[dict[str, Any]]:
+    """One run in a worker process: a short-lived process whose searches keep their objects frozen
+    until the next one (:func:`hbtp.collector.searches_frozen`)."""
+    with searches_frozen():
+        return function(spec)
+
+
 def _run_local(
     function: RunFunction, pending: Sequence[Work], results: ResultsFile, jobs: int, limit: float, bar: _Progress
 ) -> None:
@@ -229,7 +237,7 @@ def _drain(
         while queue and len(running) < jobs:  # so a run's clock starts when a worker is free for it
             item = queue[-1]
             bar.starting(item)
-            running[pool.schedule(function, (item.spec,), timeout=limit)] = (item, time.monotonic())
+            running[pool.schedule(in_worker, (function, item.spec), timeout=limit)] = (item, time.monotonic())
             queue.pop()  # (only once scheduled: a broken pool leaves it queued)
         done, _ = wait(running, return_when=FIRST_COMPLETED)
         for future in done:
@@ -271,7 +279,7 @@ def _run_ray(
                 ray.init(num_cpus=jobs, include_dashboard=False, log_to_driver=False)
         except Exception as error:  # Ray raises many types (ConnectionError, RuntimeError, ...)
             raise BackendError(f"cannot start or reach Ray ({address or 'local'}): {error}") from error
-    remote = ray.remote(max_retries=0)(function)
+    remote = ray.remote(max_retries=0)(in_worker)
     queue = list(reversed(pending))
     running: dict[Any, tuple[Work, float]] = {}
     try:
@@ -279,7 +287,7 @@ def _run_ray(
             while queue and len(running) < jobs:
                 item = queue.pop()
                 bar.starting(item)
-                running[remote.remote(item.spec)] = (item, time.monotonic())
+                running[remote.remote(function, item.spec)] = (item, time.monotonic())
             nearest = min(started for _, started in running.values()) + limit
             done, _ = ray.wait(list(running), num_returns=1, timeout=max(0.0, nearest - time.monotonic()))
             for ref in done:

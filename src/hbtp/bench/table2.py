@@ -132,14 +132,19 @@ class Table2Run:
     b_time_limit: float
 
 
-#: Backends built by this process, per (recipe, scenario, run): a worker keeps its model loaded
-#: across its tasks. Bounded by the runs of one benchmark; :func:`close_backends` empties it.
+#: Backends built by this (worker) process, per (recipe, scenario, run): a worker keeps its model
+#: loaded across its tasks. At most :data:`BACKENDS_KEPT`, the oldest closed past it;
+#: :func:`close_backends` empties it.
 _BACKENDS: dict[tuple[BackendRecipe, str, int], Backend] = {}
+BACKENDS_KEPT = 4
 
 
 def _backend(recipe: BackendRecipe, scenario: Scenario, run: int) -> Backend:
     key = (recipe, scenario.name, run)
     if key not in _BACKENDS:
+        while len(_BACKENDS) >= BACKENDS_KEPT:
+            oldest = next(iter(_BACKENDS))
+            _BACKENDS.pop(oldest).close()
         _BACKENDS[key] = recipe.make(scenario, run)
     return _BACKENDS[key]
 

@@ -24,6 +24,7 @@ import click
 from hbtp import __version__
 from hbtp.cli.exit_codes import ExitCode, error_line, exit_code_for, shorten
 from hbtp.cli.lazy import LazyGroup
+from hbtp.collector import searches_frozen
 from hbtp.errors import HbtpError
 
 #: Each command and where it lives (``module:attribute``): a command's module, and what it needs, is
@@ -208,7 +209,8 @@ def main(argv: list[str] | None = None) -> int:
     command_log, level = _CommandLog(), root.level
     root.addHandler(command_log)
     try:
-        code = _run(args, "--debug" in args, command_log)
+        with searches_frozen():  # a command is a short-lived process (see hbtp.collector)
+            code = _run(args, "--debug" in args, command_log)
         output.flush()
     finally:
         command_log.write_held()

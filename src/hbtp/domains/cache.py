@@ -130,7 +130,7 @@ def _unsafe_directory(directory: Path) -> str | None:
     return None
 
 
-@functools.cache
+@functools.lru_cache(maxsize=64)  # the messages said once (a process meets one or two)
 def _warn_once(message: str) -> None:
     log.warning("%s", message)
 

@@ -219,6 +219,12 @@ def load_scenario(name: str) -> Scenario:
     return _load_shipped(name)
 
 
+def forget_shipped() -> None:
+    """Free the shipped scenarios this process keeps loaded (a later :func:`load_scenario` reads
+    them from the disk cache again)."""
+    _load_shipped.cache_clear()
+
+
 @dataclass(frozen=True)
 class ScenarioOptions:
     """How PDDL files become a scenario: its name (default: the problem's), title and description,
@@ -260,7 +266,13 @@ class ScenarioOptions:
         )
 
 
-@functools.cache
+#: Shipped scenarios kept loaded in this process (all four: each is loaded once per process, and a
+#: command or a benchmark worker asks for the same ones again and again). :func:`forget_shipped`
+#: frees them.
+SHIPPED_KEPT = 4
+
+
+@functools.lru_cache(maxsize=SHIPPED_KEPT)
 def _load_shipped(name: str) -> Scenario:
     entry = _manifest()[name]
     with resources.as_file(DATA) as folder:

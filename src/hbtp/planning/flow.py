@@ -322,15 +322,9 @@ def _solver() -> Any:
     return highspy
 
 
-_started: list[bool] = []  # whether this process has made a solver (HiGHS prints its banner once)
-
-
 def _new_solver(highspy: Any) -> Any:
-    """A new HiGHS solver, silent. The first one of the process is made with standard output closed,
-    which takes HiGHS's banner."""
-    if _started:
-        return highspy.Highs()
-    _started.append(True)
+    """A new HiGHS solver, made with standard output closed: the first one of a process prints
+    HiGHS's banner there (closing it every time keeps no state of our own; solvers are few)."""
     sys.stdout.flush()
     saved = os.dup(1)
     null = os.open(os.devnull, os.O_WRONLY)

@@ -29,8 +29,6 @@ in s0, then by insertion order, so runs are deterministic.
 
 from __future__ import annotations
 
-import contextlib
-import gc
 import heapq
 import logging
 import math
@@ -38,7 +36,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
-from hbtp.collector import collector_paused
+from hbtp.collector import collector_paused, search_memory
 from hbtp.deadline import TimeLimitReached
 from hbtp.domains.mutex import Mutexes
 from hbtp.logic.subsets import SubsetIndex
@@ -96,48 +94,12 @@ class _Node:
         self.seen: set[int] | None = None
 
 
-class _Memory:
-    """What a finished search leaves for the next one to free, and the cyclic collector's pause.
-
-    The search allocates many small objects and no reference cycles; the collector's full passes
-    (50-130 ms on large searches) would make a run overshoot its time limit, so it is paused during
-    the search. Afterwards the objects are frozen (moved out of the collector's sight, an O(1) step)
-    until the next search releases them: otherwise the first collection after the search, typically
-    while the tree is built, would walk every one of them (a second after a 10 s search). Freeing a
-    large search (tens of thousands of nodes and suspended generators) takes up to 0.1 s, so it is
-    deferred to the start of the next search, before that one's clock starts.
-    """
-
-    def __init__(self) -> None:
-        self.parked: list[object] = []
-        self.frozen = False
-
-    def park(self, objects: object) -> None:
-        """Keep ``objects`` alive until :meth:`release` (so dropping them costs nothing now)."""
-        self.parked.append(objects)
-
-    def release(self) -> None:
-        """Free what is parked and give the frozen objects back to the collector."""
-        self.parked.clear()
-        if self.frozen:
-            gc.unfreeze()
-            self.frozen = False
-
-    def collector_paused(self) -> contextlib.AbstractContextManager[None]:
-        """The collector paused for a search; its objects frozen when it is switched back on."""
-        return collector_paused(on_resume=self.freeze)
-
-    def freeze(self) -> None:
-        gc.freeze()
-        self.frozen = True
-
-
-_MEMORY = _Memory()
-
-
 def release_search_memory() -> None:
-    """Free what the last search left parked (done automatically when the next one starts)."""
-    _MEMORY.release()
+    """Free what the last search left parked in the enclosing :func:`~hbtp.collector.searches_frozen`
+    (done automatically when the next search starts); nothing outside one."""
+    memory = search_memory()
+    if memory is not None:
+        memory.release()
 
 
 def search(
@@ -172,7 +134,8 @@ def search(
         if all(clash is not None for clash in clashes):
             names = "; ".join(" and ".join(task.names(clash)) for clash in clashes if clash is not None)
             return finish(Status.UNSOLVABLE, f"the goal asks for {names}, which cannot hold together")
-    with _MEMORY.collector_paused():
+    memory = search_memory()
+    with memory.paused() if memory is not None else collector_paused():
         try:
             run = _Search(task, goal, actions, config, mutexes, hints, LimitWatch(limits, started), extra_expansions)
         except TimeLimitReached as stop:
@@ -184,7 +147,8 @@ def search(
             names = listing(task.names(dead)) or str(goal)
             return finish(Status.UNSOLVABLE, f"{names} cannot be reached from s0 with this action space")
         result = run.run()
-        _MEMORY.park(run.release())
+        if memory is not None:
+            memory.park(run.release())
         return result
 
 
