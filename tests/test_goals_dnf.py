@@ -19,6 +19,7 @@ from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import MAX_TERMS, format_goal, parse_goal
 from hbtp.logic.negation import with_negations
+from hbtp.logic.resolve import negations_needed
 from hbtp.logic.task import GroundTask
 from hbtp.planning import Status, plan
 from helpers import brute_force, kitchen_builder, random_task
@@ -87,7 +88,7 @@ def test_a_goal_too_large_for_dnf_is_refused() -> None:
 
 # ---------------------------------------------------------------------------------- resolution
 def test_resolution_drops_contradictions_subsumed_terms_and_always_true_negations(kitchen: GroundTask) -> None:
-    task = with_negations(kitchen, kitchen.negations_needed("~IsOpen(fridge)"))
+    task = with_negations(kitchen, negations_needed(kitchen, "~IsOpen(fridge)"))
     goal = task.resolve_goal(
         "IsIn(milk,fridge) & IsOpen(fridge) | IsIn(milk,fridge) | IsOpen(fridge) & ~IsOpen(fridge)"
     )
@@ -101,9 +102,9 @@ def test_resolution_drops_contradictions_subsumed_terms_and_always_true_negation
 def test_a_negative_literal_needs_the_twin(kitchen: GroundTask) -> None:
     with pytest.raises(InputError, match="needs the task with negated literals"):
         kitchen.resolve_goal("~IsOpen(fridge)")
-    assert kitchen.negations_needed("~IsOpen(fridge) | IsIn(milk,fridge)") == {kitchen.atom_id("IsOpen(fridge)")}
-    task = with_negations(kitchen, kitchen.negations_needed("~IsOpen(fridge)"))
-    assert with_negations(kitchen, kitchen.negations_needed("~IsOpen(fridge)")) is task  # kept with the task
+    assert negations_needed(kitchen, "~IsOpen(fridge) | IsIn(milk,fridge)") == {kitchen.atom_id("IsOpen(fridge)")}
+    task = with_negations(kitchen, negations_needed(kitchen, "~IsOpen(fridge)"))
+    assert with_negations(kitchen, negations_needed(kitchen, "~IsOpen(fridge)")) is task  # kept with the task
     assert task.atoms[: len(kitchen.atoms)] == kitchen.atoms  # ids stay valid
     twin = task.negation_ids[task.atom_id("IsOpen(fridge)")]
     assert str(task.atoms[twin]) == "~IsOpen(fridge)"
@@ -166,7 +167,7 @@ def test_obtea_over_or_and_not_is_optimal_against_brute_force(seed: int) -> None
     per_term = [brute_force(base, _holds(base, (term,)))[0] for term in terms]
     finite = [cost for cost in per_term if cost is not None]
     assert optimum == (min(finite) if finite else None)
-    task = with_negations(base, base.negations_needed(text))
+    task = with_negations(base, negations_needed(base, text))
     goal = task.resolve_goal(text)
     mutexes = with_negation_groups(infer_mutexes(base), task)
     assert mutexes == infer_mutexes(task)
@@ -192,7 +193,7 @@ def test_every_planner_reaches_a_disjunctive_negative_goal(seed: int) -> None:
     base, _ = random_task(seed)
     text = _random_goal(base, random.Random(2000 + seed))
     optimum, _ = brute_force(base, _holds(base, parse_goal(text)))
-    task = with_negations(base, base.negations_needed(text))
+    task = with_negations(base, negations_needed(base, text))
     goal = task.resolve_goal(text)
     for planner in ("bte", "hbtp-o", "hbtp-s"):
         result = plan(task, goal, planner)

@@ -204,24 +204,33 @@ def test_a_10000_literal_goal_is_resolved_or_rejected_in_one_pass(robothow: Scen
         task.resolve_goal(" & ".join([*pairs, "grabbable(apple,plate)"]))
 
 
-def test_derived_tables_are_built_once_per_task_and_not_pickled(kitchen: GroundTask) -> None:
+def test_task_tables_are_built_once_per_task_and_not_pickled(kitchen: GroundTask) -> None:
     import pickle
 
+    from hbtp.logic.tables import TaskTable
+
+    table: TaskTable[list[int]] = TaskTable("a test table")
+    shared: TaskTable[int] = TaskTable("a table that does not depend on s0", state_free=True)
     builds: list[int] = []
 
     def build() -> list[int]:
         builds.append(1)
         return [len(kitchen.actions)]
 
-    first = kitchen.derived(build, build)
-    assert kitchen.derived(build, build) is first
-    assert len(builds) == 1
-    copy = pickle.loads(pickle.dumps(kitchen))
-    assert "_derived" not in copy.__dict__
-    assert copy.derived("other", lambda: 7) == 7
-    kitchen.forget_derived()
-    assert kitchen.derived(build, build) == first
+    first = table.of(kitchen, build)
+    assert table.of(kitchen, build) is first
+    assert table.of(kitchen, build, key="another") is not first  # a key: another value
     assert len(builds) == 2
+    copy = pickle.loads(pickle.dumps(kitchen))
+    assert "_tables" not in copy.__dict__
+    assert table.of(copy, lambda: [7]) == [7]
+    assert shared.of(kitchen, lambda: 5) == 5
+    moved = kitchen.from_state(frozenset())
+    assert shared.of(moved, lambda: 6) == 5  # shared with the task from another state
+    assert table.of(moved, lambda: [8]) == [8]  # not shared: may depend on s0
+    kitchen.tables().clear()
+    assert table.of(kitchen, build) == first
+    assert len(builds) == 3
 
 
 def test_relevant_actions_follow_achievers_back_from_the_goal() -> None:

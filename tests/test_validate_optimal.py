@@ -76,7 +76,7 @@ def test_unified_planning_route_reads_the_export_once_per_task(
         return original(self, domain, problem)
 
     monkeypatch.setattr(PDDLReader, "parse_problem", counting)
-    robothow_small.task.forget_derived()  # the parsed problem is kept with the task: start without it
+    robothow_small.task.tables().clear()  # the parsed problem is kept with the task: start without it
     assert choose_engine(robothow_small.task) == "unified-planning"
     rows = compare_optimal("robothow-small", limit=3, time_limit=60, engine="unified-planning")
     _check_rows(rows, 3)

@@ -57,6 +57,7 @@ from hbtp.domains.pddl_writer import GOAL_ACTION, keyword_safe_predicates
 from hbtp.domains.scenarios import ScenarioOptions
 from hbtp.errors import BackendError, InputError
 from hbtp.files import InputKind, read_text
+from hbtp.logic.tables import TaskTable
 from hbtp.logic.task import Goal, GroundAction, GroundTask
 from hbtp.planning import Limits, PlanResult, Status, plan
 from hbtp.planning.planners import Space
@@ -416,6 +417,10 @@ def _solve_with_unified_planning(
     return _Outcome(RunStatus.ERROR, message=f"{result.status.name}: {logs[-500:]}")
 
 
+#: Fast Downward's parsed problems of a task, by exported text (the goal set apart).
+_PARSED_PROBLEMS: TaskTable[dict[str, Any]] = TaskTable("Fast Downward's parsed problems")
+
+
 def _problem_for_goal(task: GroundTask, goal: Goal, key: str, problem_file: Path) -> Any:
     """The parsed problem with ``goal``: read from the files the first time, else a copy with a new goal.
 
@@ -424,7 +429,7 @@ def _problem_for_goal(task: GroundTask, goal: Goal, key: str, problem_file: Path
     """
     from unified_planning.io import PDDLReader
 
-    parsed: dict[str, Any] = task.derived(_problem_for_goal, dict)
+    parsed = _PARSED_PROBLEMS.of(task, dict)
     cached = parsed.get(key)
     if not goal.conjunctive or task.negation_ids:  # kept simple: read the files, which hold the goal
         return PDDLReader().parse_problem(str(problem_file.with_name("domain.pddl")), str(problem_file))

@@ -24,6 +24,7 @@ from hbtp.datasets import load_dataset, validate_records
 from hbtp.datasets.records import Record
 from hbtp.domains import load_scenario
 from hbtp.llm.parse import hints_from_record
+from hbtp.logic.tables import TaskTable
 from hbtp.logic.task import GroundAction, GroundTask
 from hbtp.planning import Hints, Limits, planner_config, pruned_action_space, resolve_hints, search
 from hbtp.planning.hints import PathNoise, seeded_random
@@ -100,13 +101,16 @@ def run_fig4(config: Fig4Config, out: Path, execution: Execution = DEFAULT_EXECU
     return summary
 
 
+_PRUNED_SPACES: TaskTable[tuple[GroundAction, ...]] = TaskTable("the pruned spaces of records' hints")
+
+
 def _pruned_space(task: GroundTask, record: Record) -> tuple[GroundAction, ...]:
     """The record's own pruned action space (built once per task and record, kept with the task)."""
 
     def build() -> tuple[GroundAction, ...]:
         return task.restricted(pruned_action_space(task, resolve_hints(task, hints_from_record(record))))
 
-    return task.derived((_pruned_space, record), build)
+    return _PRUNED_SPACES.of(task, build, key=record)
 
 
 def run_one(run: Fig4Run) -> dict[str, Any]:

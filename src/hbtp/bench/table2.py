@@ -30,6 +30,7 @@ from hbtp.llm.backends.first_reply import FirstReplyBackend
 from hbtp.llm.backends.registry import BackendOptions, make_backend
 from hbtp.llm.parse import hints_from_record
 from hbtp.llm.pool import example_pool
+from hbtp.logic.tables import TaskTable
 from hbtp.pipeline import LoopOptions, LoopResult, Outcome, run_hbtp
 from hbtp.planning import Limits, plan, pruned_action_space, release_search_memory, resolve_hints
 from hbtp.planning.heuristics import HeuristicName
@@ -156,9 +157,12 @@ def close_backends() -> None:
         backend.close()
 
 
+_EXAMPLE_POOLS: TaskTable[list[Record]] = TaskTable("the scenario's example pool")
+
+
 def _examples(scenario: Scenario) -> list[Record]:
     """The scenario's example pool, read once and kept with its task."""
-    return scenario.task.derived((example_pool, scenario.name), lambda: example_pool(scenario))
+    return _EXAMPLE_POOLS.of(scenario.task, lambda: example_pool(scenario), key=scenario.name)
 
 
 def run_one(run: Table2Run) -> dict[str, Any]:

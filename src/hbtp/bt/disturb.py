@@ -38,6 +38,7 @@ from hbtp.bt.simulate import DEFAULT_MAX_TICKS, compile_tree, simulate
 from hbtp.domains.mutex import Mutexes
 from hbtp.errors import InputError
 from hbtp.logic.execution import Event, Run
+from hbtp.logic.tables import TaskTable
 from hbtp.logic.task import Goal, GoalIds, GroundTask, State
 
 log = logging.getLogger(__name__)
@@ -109,9 +110,12 @@ def exactly_one_groups(task: GroundTask, mutexes: Mutexes) -> tuple[frozenset[in
     return tuple(result)
 
 
+_EVENTS: TaskTable[EventModel] = TaskTable("the disturbance model (keyed by the mutexes)")
+
+
 def event_model(task: GroundTask, mutexes: Mutexes) -> EventModel:
-    """The :class:`EventModel` of a task and its mutexes, kept with the task (:meth:`GroundTask.derived`)."""
-    return task.derived((EventModel, mutexes), lambda: EventModel.build(task, mutexes))
+    """The :class:`EventModel` of a task and its mutexes, kept with the task."""
+    return _EVENTS.of(task, lambda: EventModel.build(task, mutexes), key=mutexes)
 
 
 class RandomDisturbance:

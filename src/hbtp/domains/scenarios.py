@@ -39,8 +39,10 @@ from hbtp.domains.pddl_reader import read_domain_file, read_problem_file
 from hbtp.domains.quantifiers import expand_formula
 from hbtp.errors import InputError
 from hbtp.files import InputKind, read_text
-from hbtp.logic.atoms import Atom
+from hbtp.logic.goals import GoalFormula
 from hbtp.logic.negation import with_negations
+from hbtp.logic.resolve import GoalSource, negations_needed
+from hbtp.logic.tables import TaskTable
 from hbtp.logic.task import Goal, GroundTask
 
 log = logging.getLogger(__name__)
@@ -103,6 +105,10 @@ def read_pddl(domain_file: str | Path, problem_file: str | Path, deadline: Deadl
     return Pddl(domain, read_problem_file(problem_file, domain, deadline))
 
 
+#: A scenario with negated twins, kept with the task it was made from (keyed by the new task).
+_WITH_NEGATIONS: TaskTable[Scenario] = TaskTable("the scenario with negated twins")
+
+
 @dataclass(frozen=True)
 class Scenario:
     """A planning scenario: the grounded task, its mutexes, and where it came from.
@@ -150,21 +156,26 @@ class Scenario:
             )
         return _goal_text(expanded, self.problem_file)
 
-    def resolve_goal(self, goal: str | Goal | Iterable[Atom | str]) -> tuple[Scenario, Goal]:
+    def resolve_goal(self, goal: GoalSource) -> tuple[Scenario, Goal]:
         """The goal resolved, with the scenario to plan it in: this one, or this one with the negated
-        twins its negative literals need (:func:`hbtp.logic.negation.with_negations`)."""
-        needed = self.task.negations_needed(goal)
+        twins its negative literals need (:func:`hbtp.logic.negation.with_negations`). Goal text is
+        read once (:class:`~hbtp.logic.goals.GoalFormula`)."""
+        if isinstance(goal, Goal) and goal.resolved_in(self.task):
+            return self, goal
+        formula = GoalFormula.parse(goal) if isinstance(goal, str) else goal
+        needed = negations_needed(self.task, formula)
         scenario = self.with_negations(needed) if needed else self
-        return scenario, scenario.task.resolve_goal(goal)
+        return scenario, scenario.task.resolve_goal(formula)
 
     def with_negations(self, atom_ids: Iterable[int]) -> Scenario:
         """This scenario with negated twins for ``atom_ids`` (kept: asking again gives the same object)."""
         task = with_negations(self.task, atom_ids)
         if task is self.task:
             return self
-        return self.task.derived(
-            (Scenario.with_negations, task),
+        return _WITH_NEGATIONS.of(
+            self.task,
             lambda: dataclasses.replace(self, task=task, mutexes=with_negation_groups(self.mutexes, task)),
+            key=task,
         )
 
     def for_goal(self, goal: Goal) -> Scenario:

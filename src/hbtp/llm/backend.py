@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from hbtp.llm.constrain import Constraint
+from hbtp.logic.goal import Goal
 
 
 class PromptStyle(enum.Enum):
@@ -56,6 +57,9 @@ class Request:
     constraint: Constraint | None = None
     #: The instruction a goal is asked for (:mod:`hbtp.llm.goal_prompt`), for the instruction oracle.
     instruction: str = ""
+    #: ``goal`` as the loop resolved it (bookkeeping, like ``round``): an oracle that plans in the
+    #: same task answers from it instead of reading the text again.
+    resolved: Goal | None = field(default=None, compare=False, repr=False)
 
     def key(self) -> str:
         """A stable hash of what the model is asked (for record/replay).

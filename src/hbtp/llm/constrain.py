@@ -32,6 +32,7 @@ from typing import Any
 from hbtp.datasets.reply import OBJECTS, PREDICATES, format_reply
 from hbtp.llm.vocabulary import as_names
 from hbtp.logic.names import ActionNames
+from hbtp.logic.tables import TaskTable
 from hbtp.logic.task import GroundTask
 
 #: The largest bounds of the three lists (the longest path of the shipped example pools has 17 actions).
@@ -80,13 +81,16 @@ class Constraint:
         return value
 
 
+_NAME_RULES: TaskTable[tuple[str, str]] = TaskTable("the grammar rules of the names")
+
+
 def constraint_of(source: GroundTask | ActionNames, bounds: Bounds = Bounds()) -> Constraint:
     """The constraint of the replies for a task (or its action names) with lists of at most ``bounds`` items.
 
     The rules of the names are built once per task (kept with its names); only the first line,
     which holds the bounds, changes from request to request."""
     task = as_names(source)
-    rules, action_pattern = task.derived(constraint_of, lambda: _names(task))
+    rules, action_pattern = _NAME_RULES.of(task, lambda: _names(task))
     predicates, objects = task.action_predicates, task.symbols
     root = (
         f'root ::= " " {_bounded("action", bounds.actions)} '

@@ -16,6 +16,7 @@ from hbtp.llm.parse import ParsedReply, underscored
 from hbtp.llm.vocabulary import as_names, vocabulary_of
 from hbtp.logic.atoms import Atom, parse_atom
 from hbtp.logic.names import ActionNames
+from hbtp.logic.tables import TaskTable
 from hbtp.logic.task import GroundTask
 from hbtp.planning.hints import Hints
 
@@ -77,6 +78,9 @@ class _Matcher:
         return close[0] if len(close) == 1 else None
 
 
+_MATCHERS: TaskTable[tuple[_Matcher, _Matcher]] = TaskTable("the predicate and object matchers")
+
+
 def _matchers(names: ActionNames) -> tuple[_Matcher, _Matcher]:
     """The predicate and object matchers (kept with the names: their memos grow as names are met)."""
 
@@ -84,7 +88,7 @@ def _matchers(names: ActionNames) -> tuple[_Matcher, _Matcher]:
         vocabulary = vocabulary_of(names)
         return _Matcher(vocabulary.predicate_names), _Matcher(vocabulary.object_names)
 
-    return names.derived(_matchers, build)
+    return _MATCHERS.of(names, build)
 
 
 def _match_action(name: str, predicates: _Matcher, objects: _Matcher, action_names: frozenset[str]) -> Atom | None:

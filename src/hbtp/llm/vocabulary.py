@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from hbtp.logic.names import ActionNames, names_of
+from hbtp.logic.tables import TaskTable
 from hbtp.logic.task import GroundTask
 
 ANY = "ANY"
@@ -46,10 +47,13 @@ def as_names(source: GroundTask | ActionNames) -> ActionNames:
     return source if isinstance(source, ActionNames) else names_of(source)
 
 
+_VOCABULARY: TaskTable[Vocabulary] = TaskTable("the prompt vocabulary")
+
+
 def vocabulary_of(source: GroundTask | ActionNames) -> Vocabulary:
     """The prompt vocabulary of a task or of action names (built once, kept with the names)."""
     names = as_names(source)
-    return names.derived(vocabulary_of, lambda: _vocabulary(names))
+    return _VOCABULARY.of(names, lambda: _vocabulary(names))
 
 
 def _vocabulary(names: ActionNames) -> Vocabulary:

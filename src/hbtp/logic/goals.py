@@ -50,6 +50,23 @@ class _Op:
 _Formula = Atom | _Op
 
 
+@dataclass(frozen=True)
+class GoalFormula:
+    """A goal read once, before any task: its terms (disjunctive normal form) as written. Resolve it
+    against each task it is planned in (:func:`hbtp.logic.resolve.resolve_goal`); it is never parsed
+    again."""
+
+    terms: Dnf
+
+    @classmethod
+    def parse(cls, text: str) -> GoalFormula:
+        """The goal of ``text`` in either syntax (see :func:`parse_goal`)."""
+        return cls(parse_goal(text))
+
+    def __str__(self) -> str:
+        return format_goal(self.terms)
+
+
 def parse_goal(text: str) -> Dnf:
     """The terms of a goal text in either syntax (see the module docstring); :class:`InputError` on
     anything malformed, quoting where it went wrong."""
@@ -266,4 +283,4 @@ class _PddlReader:
         self.tokens.take()
 
 
-__all__ = ["MAX_DEPTH", "MAX_TERMS", "Dnf", "Term", "format_goal", "parse_goal", "to_dnf"]
+__all__ = ["MAX_DEPTH", "MAX_TERMS", "Dnf", "GoalFormula", "Term", "format_goal", "parse_goal", "to_dnf"]

@@ -9,12 +9,13 @@ so that LLM guidance can prune a large world before it is grounded.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Hashable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, TypeVar
+from typing import TypeVar
 
 from hbtp.logic.atoms import Atom
+from hbtp.logic.tables import Tables, TaskTable
 from hbtp.logic.task import GroundTask
 
 _T = TypeVar("_T")
@@ -54,19 +55,21 @@ class ActionNames:
         return frozenset(self.actions)
 
     @cached_property
-    def _derived(self) -> dict[Hashable, Any]:
-        return {}
+    def _tables(self) -> Tables:
+        return Tables()
 
-    def derived(self, key: Hashable, build: Callable[[], _T]) -> _T:
-        """What ``build()`` computes from these names, computed once and kept with them."""
-        if key not in self._derived:
-            self._derived[key] = build()
-        return self._derived[key]  # type: ignore[no-any-return]
+    def tables(self, state_free: bool = False) -> Tables:
+        """The tables kept with these names (:class:`~hbtp.logic.tables.TaskTable`)."""
+        return self._tables
+
+
+#: A grounded task's action names (what the LLM side reads of it).
+NAMES: TaskTable[ActionNames] = TaskTable("the action and condition names")
 
 
 def names_of(task: GroundTask) -> ActionNames:
     """The names of ``task``'s actions and conditions (built once, kept with the task)."""
-    return task.derived(names_of, lambda: _names(task))
+    return NAMES.of(task, lambda: _names(task))
 
 
 def _names(task: GroundTask) -> ActionNames:

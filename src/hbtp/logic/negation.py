@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Iterable
 
+from hbtp.logic.tables import TaskTable
 from hbtp.logic.task import GroundAction, GroundTask
 
 
@@ -27,7 +28,11 @@ def with_negations(task: GroundTask, atom_ids: Iterable[int]) -> GroundTask:
     missing = tuple(sorted({i for i in atom_ids if i not in task.negation_ids and not task.atoms[i].negated}))
     if not missing:
         return task
-    return task.derived((with_negations, missing), lambda: _compiled(task, missing))
+    return _NEGATED.of(task, lambda: _compiled(task, missing), key=missing)
+
+
+#: The task with negated twins for some atoms (keyed by those atoms).
+_NEGATED: TaskTable[GroundTask] = TaskTable("the task with negated twins")
 
 
 def _compiled(task: GroundTask, missing: tuple[int, ...]) -> GroundTask:

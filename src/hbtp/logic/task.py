@@ -11,15 +11,18 @@ States and conditions are ``frozenset[int]`` of atom ids; :class:`Atom` names ar
 from __future__ import annotations
 
 import dataclasses
-import difflib
-from collections.abc import Callable, Hashable, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, TypeVar, cast
+from typing import Any, TypeVar
 
-from hbtp.errors import InputError, UnknownSymbolError
+from hbtp.errors import UnknownSymbolError
 from hbtp.logic.atoms import Atom, parse_atom
-from hbtp.logic.goals import parse_goal
+from hbtp.logic.goal import Goal, GoalIds, disjuncts_of
+from hbtp.logic.goals import GoalFormula
+from hbtp.logic.resolve import check_literal, resolve_goal
+from hbtp.logic.suggest import did_you_mean, listing
+from hbtp.logic.tables import Tables
 
 State = frozenset[int]
 _T = TypeVar("_T")
@@ -54,80 +57,6 @@ class GroundAction:
 
     def progress(self, state: State) -> State:
         return (state - self.delete) | self.add
-
-
-@dataclass(frozen=True)
-class Goal:
-    """A goal in disjunctive normal form, resolved against a task.
-
-    ``terms`` are the goal's conjunctions as written (names in their declared spelling, literals
-    possibly negated); ``disjuncts`` the atom-id sets of the terms that can be satisfied, without
-    the ones another disjunct makes redundant (a superset of another). A goal holds in a state when
-    one of its disjuncts does. ``unreachable`` lists well-formed literals that no action makes true
-    and s0 does not hold; ``reachable`` are the disjuncts without one (the search's roots), and
-    ``contradictory`` the terms left out because they ask for a literal and its negation. When no
-    disjunct is reachable, the goal is unsolvable for those reasons.
-    """
-
-    terms: tuple[tuple[Atom, ...], ...]
-    disjuncts: tuple[frozenset[int], ...]
-    unreachable: tuple[Atom, ...] = ()
-    contradictory: tuple[tuple[Atom, ...], ...] = ()
-    reachable: tuple[frozenset[int], ...] = ()
-
-    def __str__(self) -> str:
-        return " | ".join(" & ".join(a.underscored for a in term) for term in self.terms)
-
-    @property
-    def atoms(self) -> tuple[Atom, ...]:
-        """Every literal of the goal, in the order written."""
-        return tuple(dict.fromkeys(atom for term in self.terms for atom in term))
-
-    @property
-    def conjunctive(self) -> bool:
-        """Whether the goal is one conjunction (the paper's goals)."""
-        return len(self.terms) == 1
-
-    @property
-    def ids(self) -> frozenset[int]:
-        """The atom ids of a conjunctive goal (raises ``ValueError`` for a disjunction)."""
-        if len(self.disjuncts) == 1:
-            return self.disjuncts[0]
-        if not self.disjuncts:
-            return frozenset()
-        raise ValueError(f"the goal {self} is a disjunction: use Goal.disjuncts or Goal.holds")
-
-    @property
-    def literal_ids(self) -> frozenset[int]:
-        """The atom ids of every disjunct together (what a heuristic must reach)."""
-        return frozenset().union(*self.disjuncts)
-
-    def holds(self, state: Iterable[int]) -> bool:
-        """Whether one of the disjuncts holds in ``state``."""
-        present = state if isinstance(state, frozenset | set) else frozenset(state)
-        return any(d <= present for d in self.disjuncts)
-
-    @property
-    def unsolvable(self) -> str | None:
-        """Why no state can satisfy the goal (no disjunct is left), or ``None``."""
-        if self.reachable:
-            return None
-        reasons: list[str] = []
-        if self.unreachable:
-            reasons.append(f"no action makes {listing(str(a) for a in self.unreachable)} true and s0 does not hold it")
-        for term in self.contradictory[:3]:
-            reasons.append(f"{' & '.join(a.underscored for a in term)} asks for a literal and its negation")
-        return "; ".join(reasons) or "the goal has no alternative"
-
-
-#: What a goal can be given as where only its meaning matters: a :class:`Goal`, or the atom ids of
-#: a conjunction.
-GoalIds = Goal | Iterable[int]
-
-
-def disjuncts_of(goal: GoalIds) -> tuple[frozenset[int], ...]:
-    """The disjuncts of ``goal`` (one for a conjunction given by its atom ids)."""
-    return goal.disjuncts if isinstance(goal, Goal) else (frozenset(goal),)
 
 
 @dataclass(frozen=True, eq=False)
@@ -241,7 +170,7 @@ class GroundTask:
     #: The lookups above that do not depend on s0 (kept by :meth:`from_state`).
     _STATE_FREE = (
         "atom_ids", "action_ids", "action_predicates", "achievers", "consumers", "symbols", "static_arities",
-        "categories", "negation_ids", "_state_free_derived",
+        "categories", "negation_ids", "_state_free_tables",
     )  # fmt: skip
 
     def from_state(self, state: Iterable[int]) -> GroundTask:
@@ -270,42 +199,25 @@ class GroundTask:
                 task.__dict__[name] = self.__dict__[name]
         return task
 
-    # ------------------------------------------------------ the per-task index
+    # ------------------------------------------------------ the per-task tables
     @cached_property
-    def _derived(self) -> dict[Hashable, Any]:
-        return {}
+    def _tables(self) -> Tables:
+        return Tables()
 
     @cached_property
-    def _state_free_derived(self) -> dict[Hashable, Any]:
-        return {}
+    def _state_free_tables(self) -> Tables:
+        return Tables()
 
-    def derived(self, key: Hashable, build: Callable[[], _T], *, state_free: bool = False) -> _T:
-        """What ``build()`` computes from this task, computed once and kept with the task.
-
-        The one home of every per-task table the layers above need (the prompt vocabulary, the
-        heuristics' analyses, the disturbance model…): it lives exactly as long as the task, unlike a
-        module-level cache. ``key`` names the table, usually the building function itself, or a
-        tuple of it and its arguments. A ``state_free`` table (one that does not depend on s0) is
-        shared with the tasks :meth:`from_state` makes. Not thread-safe against two first builds of
-        one key (both compute the same value; one is kept).
-        """
-        memo = self._state_free_derived if state_free else self._derived
-        try:
-            return cast(_T, memo[key])
-        except KeyError:
-            value = memo[key] = build()
-            return value
-
-    def forget_derived(self) -> None:
-        """Drop every table :meth:`derived` keeps (they are rebuilt on demand)."""
-        self._derived.clear()
-        self._state_free_derived.clear()
+    def tables(self, state_free: bool = False) -> Tables:
+        """The per-task tables kept with this task (:class:`hbtp.logic.tables.TaskTable`); the
+        ``state_free`` ones are shared with the tasks :meth:`from_state` makes."""
+        return self._state_free_tables if state_free else self._tables
 
     def __getstate__(self) -> dict[str, Any]:
-        # Derived tables are rebuilt where the task is unpickled (a worker process), not shipped.
+        # Per-task tables are rebuilt where the task is unpickled (a worker process), not shipped.
         state = dict(self.__dict__)
-        state.pop("_derived", None)
-        state.pop("_state_free_derived", None)
+        state.pop("_tables", None)
+        state.pop("_state_free_tables", None)
         return state
 
     def atom(self, atom_id: int) -> Atom:
@@ -354,132 +266,15 @@ class GroundTask:
         """Readable, sorted names of a set of atom ids."""
         return sorted(str(self.atoms[i]) for i in ids)
 
-    # ------------------------------------------------------------- validation
+    # ---------------------------------------------------------------- goals
     def check_literal(self, atom: Atom) -> None:
-        """Raise :class:`UnknownSymbolError` unless ``atom`` is well formed for this domain (names are
-        case-insensitive; see :meth:`spelled`)."""
-        atom = self.spelled(atom).positive
-        arity = self.predicates.get(atom.predicate)
-        if arity is None:
-            static_arity = self.static_arities.get(atom.predicate)
-            if static_arity is None:
-                hint = did_you_mean(atom.predicate, [*self.predicates, *self.static_arities])
-                raise UnknownSymbolError(
-                    f"unknown predicate {atom.predicate!r} in {atom}{hint} (task {self.name!r} has: "
-                    f"{', '.join(sorted(self.predicates))})"
-                )
-            arity = static_arity
-        if len(atom.args) != arity:
-            raise UnknownSymbolError(f"{atom}: predicate {atom.predicate!r} takes {arity} argument(s)")
-        unknown = [arg for arg in atom.args if arg not in self.symbols]
-        if unknown:
-            hint = did_you_mean(unknown[0], self.symbols) or self._valid_objects(atom, atom.args.index(unknown[0]))
-            raise UnknownSymbolError(f"unknown object {unknown[0]!r} in {atom}{hint}")
+        """Raise :class:`UnknownSymbolError` unless ``atom`` is well formed for this domain (see
+        :func:`hbtp.logic.resolve.check_literal`)."""
+        check_literal(self, atom)
 
-    def goal_terms(self, goal: str | Goal | Iterable[Atom | str]) -> tuple[tuple[Atom, ...], ...]:
-        """The terms of a goal text (infix or PDDL, see :mod:`hbtp.logic.goals`), of a goal resolved
-        against another task, or of one conjunction of literals; names in their declared spelling."""
-        if isinstance(goal, Goal):
-            raw = goal.terms
-        elif isinstance(goal, str):
-            raw = parse_goal(goal)
-        else:
-            raw = (tuple(parse_atom(a) if isinstance(a, str) else a for a in goal),)
-        terms = tuple(tuple(dict.fromkeys(self.spelled(a) for a in term)) for term in raw)
-        if not terms or not any(terms):
-            raise InputError("empty goal")
-        return terms
-
-    def negations_needed(self, goal: str | Goal | Iterable[Atom | str]) -> frozenset[int]:
-        """The atoms whose negated twin a goal needs and this task lacks (see :meth:`resolve_goal`)."""
-        needed: set[int] = set()
-        for term in self.goal_terms(goal):
-            for atom in term:
-                atom_id = self.atom_ids.get(atom.positive)
-                if (
-                    atom.negated
-                    and atom_id is not None
-                    and atom_id not in self.negation_ids
-                    and self._negation_matters(atom_id)
-                ):
-                    needed.add(atom_id)
-        return frozenset(needed)
-
-    def _negation_matters(self, atom_id: int) -> bool:
-        """Whether ``~atom`` can be false in some reachable state (s0 holds the atom, or an action adds it)."""
-        return atom_id in self.initial_state or bool(self.achievers[atom_id])
-
-    def _valid_objects(self, atom: Atom, position: int) -> str:
-        """`` (IsIn takes at argument 2: a, b, c)``: the objects the task's literals of ``atom``'s
-        predicate have at ``position`` (its category, in effect), or ''."""
-        values = sorted(
-            {a.args[position] for a in self.atoms if a.predicate == atom.predicate and len(a.args) > position}
-        )
-        if not values:
-            return ""
-        where = f" at argument {position + 1}" if len(atom.args) > 1 else ""
-        return f" ({atom.predicate} takes{where}: {listing(values)})"
-
-    def resolve_goal(self, goal: str | Goal | Iterable[Atom | str]) -> Goal:
-        """Resolve a goal (``IsIn_milk_fridge & ~IsOpen(fridge) | IsOn_milk_table``, a PDDL goal, a
-        goal of another task or a conjunction of literals) against this task.
-
-        A negative literal ``~p`` needs ``p``'s negated twin in the task unless it always holds (no
-        action adds ``p`` and s0 lacks it: it is dropped); :meth:`negations_needed` says which are
-        missing, and :func:`hbtp.logic.negation.with_negations` adds them.
-        """
-        disjuncts: list[frozenset[int]] = []
-        unreachable: list[Atom] = []
-        contradictory: list[tuple[Atom, ...]] = []
-        live: list[frozenset[int]] = []
-        terms = self.goal_terms(goal)
-        for term in terms:
-            ids, missing = self._term_ids(term)
-            if ids is None:
-                contradictory.append(term)
-                continue
-            unreachable.extend(a for a in missing if a not in unreachable)
-            if any(a.positive not in self.atom_ids for a in missing):
-                continue  # a literal that is no atom of the task: the term can hold in no state
-            disjuncts.append(ids)
-            if not missing:
-                live.append(ids)
-        kept = tuple(
-            d for i, d in enumerate(disjuncts) if not any(o < d or (o == d and j < i) for j, o in enumerate(disjuncts))
-        )
-        roots = tuple(d for d in kept if d in live)
-        return Goal(terms, kept, tuple(unreachable), tuple(contradictory), roots)
-
-    def _term_ids(self, term: tuple[Atom, ...]) -> tuple[frozenset[int] | None, list[Atom]]:
-        """The atom ids of one conjunction, and its literals that can never hold (``None`` ids when
-        it asks for a literal and its negation)."""
-        ids: set[int] = set()
-        missing: list[Atom] = []
-        for atom in term:
-            self.check_literal(atom)
-            if atom.predicate not in self.predicates:  # static: true or false in every state
-                if (atom.positive in self.static_facts) == atom.negated:
-                    missing.append(atom)
-                continue
-            atom_id = self.atom_ids.get(atom.positive)
-            if not atom.negated:
-                if atom_id is None or (atom_id not in self.initial_state and not self.achievers[atom_id]):
-                    missing.append(atom)
-                if atom_id is not None:
-                    ids.add(atom_id)
-            elif atom_id is not None and self._negation_matters(atom_id):
-                twin = self.negation_ids.get(atom_id)
-                if twin is None:
-                    raise InputError(
-                        f"the goal literal {atom} needs the task with negated literals "
-                        "(resolve the goal through its scenario, or hbtp.logic.negation.with_negations)"
-                    )
-                if twin not in self.initial_state and not self.achievers[twin]:
-                    missing.append(atom)
-                ids.add(twin)
-        if any(self.negation_ids.get(i) in ids for i in ids):
-            return None, missing
-        return frozenset(ids), missing
+    def resolve_goal(self, goal: str | Goal | GoalFormula | Iterable[Atom | str]) -> Goal:
+        """``goal`` resolved against this task (see :func:`hbtp.logic.resolve.resolve_goal`)."""
+        return resolve_goal(self, goal)
 
     # ---------------------------------------------------------------- execute
     def execute(self, actions: Sequence[GroundAction], state: State | None = None) -> tuple[State, int]:
@@ -500,20 +295,14 @@ class GroundTask:
         return tuple(self.actions[i] for i in sorted(set(action_ids)))
 
 
-def did_you_mean(name: str, known: Iterable[str]) -> str:
-    """`` (did you mean 'a' or 'b'?)`` with the closest of ``known`` names (case-insensitively), or ''."""
-    spelling: dict[str, str] = {}
-    for k in sorted(known):
-        spelling.setdefault(k.lower(), k)
-    close = difflib.get_close_matches(name.lower(), spelling, n=3)
-    if not close:
-        return ""
-    return " (did you mean " + " or ".join(repr(spelling[c]) for c in close) + "?)"
-
-
-def listing(names: Iterable[str], most: int = 10) -> str:
-    """``a, b, c`` for a message: at most ``most`` names, then how many more there are."""
-    shown = list(names)
-    if len(shown) <= most:
-        return ", ".join(shown)
-    return ", ".join(shown[:most]) + f" and {len(shown) - most} more"
+__all__ = [
+    "Condition",
+    "Goal",
+    "GoalIds",
+    "GroundAction",
+    "GroundTask",
+    "State",
+    "did_you_mean",
+    "disjuncts_of",
+    "listing",
+]

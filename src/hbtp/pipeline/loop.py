@@ -194,7 +194,6 @@ class _Loop:
         #: The same bound for grounding a part of the world, or all of it.
         self.limit = None if options.time_limit is None else Deadline(options.time_limit, started)
         self.world, self.names, self.goal = world, world.names, goal
-        self.goal_task = world.part(frozenset(), frozenset()).resolve_goal(goal)[0].task
         self.pool, self.options = pool, options
         self.prompt = options.prompt.for_backend(backend.prompt_style)
         self.config = planner_config(options.planner, heuristic=options.heuristic)
@@ -207,7 +206,8 @@ class _Loop:
         #: The scenario the last round planned in (a part of the world, or all of it) and its result.
         self.scenario: Scenario | None = None
         self.last: PlanResult | None = None
-        self.request = build_request(self.names, str(goal), pool, self.prompt, scenario=world.name)
+        request = build_request(self.names, str(goal), pool, self.prompt, scenario=world.name)
+        self.request = replace(request, resolved=goal)
 
     def left(self) -> float:
         return self.deadline - time.perf_counter()
@@ -275,7 +275,7 @@ class _Loop:
     def goal_in(self, scenario: Scenario) -> tuple[Scenario, Goal]:
         """``scenario`` (with the negated twins the goal needs) and the goal in its atoms (a part of a
         world has atoms of its own)."""
-        if scenario.task is self.goal_task:
+        if self.goal.resolved_in(scenario.task):
             return scenario, self.goal
         return scenario.resolve_goal(self.goal)
 

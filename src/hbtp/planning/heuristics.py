@@ -44,6 +44,7 @@ from typing import Literal, Protocol, overload
 from hbtp import compiled as extensions
 from hbtp.deadline import Deadline
 from hbtp.errors import InputError
+from hbtp.logic.tables import TaskTable
 from hbtp.logic.task import GroundAction, GroundTask
 from hbtp.planning.flow import StateEquation
 from hbtp.planning.lmcut import LmCut
@@ -282,6 +283,12 @@ def landmark_costs(
     return share
 
 
+#: The per-task tables of the heuristics: what holds for the whole action space is kept with the task.
+_SHARES: TaskTable[tuple[frozenset[int], list[float]]] = TaskTable("landmark cost shares", state_free=True)
+_FULL_PAIRS: TaskTable[PairCosts | None] = TaskTable("h² of the whole action space (None: too large)")
+_FULL_LMCUT: TaskTable[LmCut] = TaskTable("LM-cut over the whole action space")
+
+
 def _shares(task: GroundTask, actions: Sequence[GroundAction]) -> tuple[frozenset[int], list[float]]:
     """The atoms some precondition of ``actions`` holds, and :func:`landmark_costs` for them."""
     pre_atoms: frozenset[int] = frozenset().union(*(a.pre for a in actions)) if actions else frozenset()
@@ -296,7 +303,7 @@ class SpaceAnalysis:
         self.hmax, order = _explore(task, actions, deadline=deadline)
         self.landmarks = landmark_table(task, actions, self.hmax, deadline, order)
         if len(actions) == len(task.actions):  # the same for every s0: kept for re-planning
-            self.pre_atoms, self.shares = task.derived(_shares, lambda: _shares(task, actions), state_free=True)
+            self.pre_atoms, self.shares = _SHARES.of(task, lambda: _shares(task, actions))
         else:
             self.pre_atoms, self.shares = _shares(task, actions)
         # For each action, the landmarks of its precondition that s0 lacks (None: a dead end),
@@ -338,6 +345,8 @@ class PreconditionLandmarks(Mapping[int, "frozenset[int] | None"]):
 #: How many analyses of pruned action spaces a task keeps (the most recent ones): a planner comparison
 #: searches one pruned space several times, and its analysis costs about as much as the search.
 _RECENT_SPACES = 16
+_FULL_ANALYSIS: TaskTable[SpaceAnalysis] = TaskTable("the analysis of the whole action space")
+_RECENT_ANALYSES: TaskTable[dict[tuple[int, ...], SpaceAnalysis]] = TaskTable("analyses of recent pruned spaces")
 
 
 def analyse_space(task: GroundTask, actions: Sequence[GroundAction], deadline: Deadline | None = None) -> SpaceAnalysis:
@@ -346,8 +355,8 @@ def analyse_space(task: GroundTask, actions: Sequence[GroundAction], deadline: D
 
     Past ``deadline`` it raises :class:`~hbtp.deadline.TimeLimitReached` (and keeps nothing)."""
     if len(actions) == len(task.actions):
-        return task.derived((SpaceAnalysis, "full"), lambda: SpaceAnalysis(task, actions, deadline))
-    recent: dict[tuple[int, ...], SpaceAnalysis] = task.derived((SpaceAnalysis, "recent"), dict)
+        return _FULL_ANALYSIS.of(task, lambda: SpaceAnalysis(task, actions, deadline))
+    recent = _RECENT_ANALYSES.of(task, dict)
     key = tuple(a.index for a in actions)
     analysis = recent.get(key)
     if analysis is None:
@@ -539,11 +548,11 @@ def _deferred(
     plain = step_cost is None
     changed = None if step_cost is None else {a.index: step_cost(a) for a in space}
     if plain and len(actions) == len(task.actions):  # the whole space's h², kept with the task for every goal
-        pairs = task.derived((PairCosts, "full"), lambda: pair_costs(task, actions, None, deadline))
+        pairs = _FULL_PAIRS.of(task, lambda: pair_costs(task, actions, None, deadline))
     else:
         pairs = pair_costs(task, space, changed, deadline)
     if plain and len(space) == len(task.actions):  # kept with the task: its table serves every goal
-        lmcut = task.derived((LmCut, "full"), lambda: LmCut(task, space, None, deadline))
+        lmcut = _FULL_LMCUT.of(task, lambda: LmCut(task, space, None, deadline))
     else:
         lmcut = LmCut(task, space, changed, deadline)
     if name == "lmcut":

@@ -17,6 +17,7 @@ from hbtp.domains.scenarios import Scenario
 from hbtp.errors import BackendError, HbtpError, InputError
 from hbtp.llm.backend import PromptStyle, Reply, Request
 from hbtp.llm.parse import hints_reply
+from hbtp.logic.goal import Goal
 from hbtp.planning.hints import Hints, PathNoise, seeded_random
 from hbtp.planning.limits import Limits
 from hbtp.planning.oracle import optimal_plan
@@ -33,11 +34,14 @@ class OracleBackend:
         self.limits = Limits(time_s=time_limit)
         self._plans: dict[str, list[int]] = {}
 
-    def optimal(self, goal: str) -> list[int]:
+    def optimal(self, goal: str, resolved: Goal | None = None) -> list[int]:
+        """An optimal plan of ``goal`` (``resolved``: the goal already resolved against this
+        oracle's task, when the caller has it)."""
         if goal not in self._plans:
             task = self.scenario.task
             try:
-                resolved = task.resolve_goal(goal)
+                if resolved is None or not resolved.resolved_in(task):
+                    resolved = task.resolve_goal(goal)
                 self._plans[goal] = optimal_plan(task, resolved, self.scenario.mutexes.proved_only(), self.limits)
             except HbtpError as error:
                 raise BackendError(f"the oracle has no plan for {goal!r}: {error}") from None
@@ -45,7 +49,7 @@ class OracleBackend:
 
     def path(self, request: Request) -> Sequence[int]:
         """The plan this backend answers ``request`` with."""
-        return self.optimal(request.goal)
+        return self.optimal(request.goal, request.resolved)
 
     def complete(self, request: Request) -> Reply:
         started = time.perf_counter()
@@ -76,15 +80,15 @@ class NoisyOracleBackend(OracleBackend):
         self.seed = seed
         self.noise = PathNoise(correct=1.0 - drop, error=insert)
 
-    def noisy_path(self, goal: str, round_: int) -> list[int]:
+    def noisy_path(self, goal: str, round_: int, resolved: Goal | None = None) -> list[int]:
         """The optimal plan of ``goal`` with the noise, halved on each feedback round."""
-        optimal = self.optimal(goal)
+        optimal = self.optimal(goal, resolved)
         chosen = set(optimal)
         wrong = [a.index for a in self.scenario.task.actions if a.index not in chosen]
         return self.noise.scaled(0.5**round_).apply(optimal, wrong, seeded_random(self.seed, goal, round_))
 
     def path(self, request: Request) -> Sequence[int]:
-        return self.noisy_path(request.goal, request.round)
+        return self.noisy_path(request.goal, request.round, request.resolved)
 
 
 class InstructionOracle:
