@@ -18,13 +18,13 @@ from hbtp.errors import BackendError, InputError
 from hbtp.validation import (
     INSTALL_HINT,
     RunStatus,
-    _read_plan_file,
     choose_engine,
     compare_optimal,
     decided,
     fast_downward_cost,
     run_fast_downward,
 )
+from hbtp.validation.fast_downward import _read_plan_file
 
 
 @pytest.fixture
