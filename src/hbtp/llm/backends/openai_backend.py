@@ -254,7 +254,9 @@ class OpenAIBackend:
             limit = max(0.0, request.time_limit)
         deadline = started + limit
         model = self._resolve_model(deadline, limit)
-        arguments, endpoint = self._arguments(request, model)
+        arguments, endpoint = request_arguments(
+            request, model, completions=self.use_completions, constrain=self.response_format
+        )
 
         def send(client: Any, seconds: float) -> Any:
             resource = client.completions if self.use_completions else client.chat.completions
@@ -273,7 +275,7 @@ class OpenAIBackend:
             for name in _CONSTRAINT_FIELDS:
                 arguments.pop(name, None)
             response, retries = self._call(send, what=f"model {model!r}", deadline=deadline, limit=limit)
-        text, finish = self._extract(response)
+        text, finish = extract_choice(response, self.base_url, self.use_completions)
         usage = _dict(response.get("usage"))
         constrained = bool(_CONSTRAINT_FIELDS & arguments.keys())
         return Reply(
@@ -289,33 +291,6 @@ class OpenAIBackend:
                 "constrained": constrained,
             },
         )
-
-    def _arguments(self, request: Request, model: str) -> tuple[dict[str, Any], str]:
-        """The request's arguments for the client (and the endpoint's name): the prompt, sampling,
-        stop strings and, with ``response_format``, the reply's constraint."""
-        if self.use_completions:
-            if not request.completion_prompt.strip():
-                raise BackendError("use_completions needs request.completion_prompt, but it is empty")
-            arguments: dict[str, Any] = {"model": model, "prompt": request.completion_prompt}
-            endpoint = "completions"
-        else:
-            messages = [{"role": m.role, "content": m.content} for m in request.messages]
-            if not messages:
-                if not request.completion_prompt.strip():
-                    raise BackendError("the request has neither messages nor a completion prompt")
-                messages = [{"role": "user", "content": request.completion_prompt}]
-            arguments = {"model": model, "messages": messages}
-            endpoint = "chat"
-        arguments["temperature"] = request.temperature
-        arguments["seed"] = request.seed
-        if request.stop:
-            arguments["stop"] = list(request.stop)
-        if request.constraint is not None and self.response_format:
-            if self.use_completions:  # llama.cpp's own field: a base model continues the three lines
-                arguments["extra_body"] = {"grammar": request.constraint.gbnf}
-            else:
-                arguments["response_format"] = response_format(request.constraint)
-        return arguments, endpoint
 
     def close(self) -> None:
         """Close the HTTP connections."""
@@ -423,7 +398,7 @@ class OpenAIBackend:
                     ) from None
                 failed = BackendError(
                     f"cannot reach the LLM server at {self.base_url}: {_root_reason(error)}"
-                    f"{self._after(retries)}; check the address and the server, or set --base-url"
+                    f"{after_retries(retries)}; check the address and the server, or set --base-url"
                 )
                 if retries >= self.max_retries:
                     raise failed from None
@@ -442,13 +417,13 @@ class OpenAIBackend:
                 if status in RETRY_STATUSES and retries < self.max_retries:
                     delay = self._backoff(retries, getattr(error.response, "headers", None))
                     if delay >= deadline - time.perf_counter():
-                        raise self._status_error(error, what, retries) from None  # no time left to retry
+                        raise status_error(error, what, retries, self.base_url) from None  # no time left to retry
                     log.warning("%s answered HTTP %d; retry %d in %.1f s", self.base_url, status, retries + 1, delay)
                 elif status == 400 and self._max_tokens_field == "max_tokens" and "max_completion_tokens" in str(error):
                     self._max_tokens_field = "max_completion_tokens"  # newer OpenAI models renamed it
                     continue
                 else:
-                    raise self._status_error(error, what, retries) from None
+                    raise status_error(error, what, retries, self.base_url) from None
             except (openai.OpenAIError, ValueError) as error:
                 raise BackendError(
                     f"the LLM server at {self.base_url} sent a response that is not a valid completion: "
@@ -463,53 +438,85 @@ class OpenAIBackend:
             return server_says
         return min(self.retry_delay * 2.0**retries, MAX_RETRY_DELAY) * (1.0 - 0.25 * random.random())
 
-    def _after(self, retries: int) -> str:
-        return f" (after {retries} {'retry' if retries == 1 else 'retries'})" if retries else ""
 
-    def _status_error(self, error: Any, what: str, retries: int) -> BackendError:
-        status = int(error.status_code)
-        detail = _status_detail(error)
-        where = self.base_url
-        if status in (401, 403):
-            return BackendError(
-                f"the server at {where} rejected the API key (HTTP {status}: {detail}); set OPENAI_API_KEY or --api-key"
-            )
-        if status == 404:
-            return BackendError(
-                f"{what} not found on the server at {where} (HTTP 404: {detail}); choose one it lists at "
-                f"{where}/models with --model or HBTP_LLM_MODEL, and check that the base URL ends in /v1"
-            )
-        if status == 429:
-            return BackendError(
-                f"the server at {where} is rate-limiting requests (HTTP 429: {detail}){self._after(retries)}; "
-                "wait a while and try again"
-            )
-        if status >= 500:
-            return BackendError(
-                f"the LLM server at {where} failed with HTTP {status}{self._after(retries)}: {detail}; "
-                "check the server's log and try again"
-            )
-        return BackendError(f"the LLM server at {where} refused the request with HTTP {status}: {detail}")
+def request_arguments(
+    request: Request, model: str, *, completions: bool, constrain: bool
+) -> tuple[dict[str, Any], str]:
+    """The request's arguments for the client (and the endpoint's name): the prompt, sampling,
+    stop strings and, with ``response_format``, the reply's constraint."""
+    if completions:
+        if not request.completion_prompt.strip():
+            raise BackendError("use_completions needs request.completion_prompt, but it is empty")
+        arguments: dict[str, Any] = {"model": model, "prompt": request.completion_prompt}
+        endpoint = "completions"
+    else:
+        messages = [{"role": m.role, "content": m.content} for m in request.messages]
+        if not messages:
+            if not request.completion_prompt.strip():
+                raise BackendError("the request has neither messages nor a completion prompt")
+            messages = [{"role": "user", "content": request.completion_prompt}]
+        arguments = {"model": model, "messages": messages}
+        endpoint = "chat"
+    arguments["temperature"] = request.temperature
+    arguments["seed"] = request.seed
+    if request.stop:
+        arguments["stop"] = list(request.stop)
+    if request.constraint is not None and constrain:
+        if completions:  # llama.cpp's own field: a base model continues the three lines
+            arguments["extra_body"] = {"grammar": request.constraint.gbnf}
+        else:
+            arguments["response_format"] = response_format(request.constraint)
+    return arguments, endpoint
 
-    def _extract(self, response: Any) -> tuple[str, str | None]:
-        """The first choice's text and finish reason; :class:`BackendError` for anything else."""
-        where = self.base_url
-        choices = response.get("choices") if isinstance(response, dict) else None
-        if not isinstance(choices, list):
-            raise BackendError(
-                f"the LLM server at {where} sent a response that is not a completion "
-                f"(got {_one_line(repr(response), 80)}); is the base URL an OpenAI-compatible /v1 endpoint?"
-            )
-        if not choices:
-            raise BackendError(f"the LLM server at {where} sent a completion with no choices")
-        choice = _dict(choices[0])
-        text = choice.get("text") if self.use_completions else _dict(choice.get("message")).get("content")
-        if not isinstance(text, str):
-            raise BackendError(f"the LLM server at {where} sent a choice without text")
-        finish = choice.get("finish_reason")
-        if not text:
-            log.warning("the LLM server at %s sent an empty text (finish reason %s)", where, finish)
-        return text, finish if isinstance(finish, str) else None
+
+def extract_choice(response: Any, where: str, completions: bool) -> tuple[str, str | None]:
+    """The first choice's text and finish reason; :class:`BackendError` for anything else."""
+    choices = response.get("choices") if isinstance(response, dict) else None
+    if not isinstance(choices, list):
+        raise BackendError(
+            f"the LLM server at {where} sent a response that is not a completion "
+            f"(got {_one_line(repr(response), 80)}); is the base URL an OpenAI-compatible /v1 endpoint?"
+        )
+    if not choices:
+        raise BackendError(f"the LLM server at {where} sent a completion with no choices")
+    choice = _dict(choices[0])
+    text = choice.get("text") if completions else _dict(choice.get("message")).get("content")
+    if not isinstance(text, str):
+        raise BackendError(f"the LLM server at {where} sent a choice without text")
+    finish = choice.get("finish_reason")
+    if not text:
+        log.warning("the LLM server at %s sent an empty text (finish reason %s)", where, finish)
+    return text, finish if isinstance(finish, str) else None
+
+
+def status_error(error: Any, what: str, retries: int, where: str) -> BackendError:
+    """The one-line error of an HTTP error status, with what to do."""
+    status = int(error.status_code)
+    detail = _status_detail(error)
+    if status in (401, 403):
+        return BackendError(
+            f"the server at {where} rejected the API key (HTTP {status}: {detail}); set OPENAI_API_KEY or --api-key"
+        )
+    if status == 404:
+        return BackendError(
+            f"{what} not found on the server at {where} (HTTP 404: {detail}); choose one it lists at "
+            f"{where}/models with --model or HBTP_LLM_MODEL, and check that the base URL ends in /v1"
+        )
+    if status == 429:
+        return BackendError(
+            f"the server at {where} is rate-limiting requests (HTTP 429: {detail}){after_retries(retries)}; "
+            "wait a while and try again"
+        )
+    if status >= 500:
+        return BackendError(
+            f"the LLM server at {where} failed with HTTP {status}{after_retries(retries)}: {detail}; "
+            "check the server's log and try again"
+        )
+    return BackendError(f"the LLM server at {where} refused the request with HTTP {status}: {detail}")
+
+
+def after_retries(retries: int) -> str:
+    return f" (after {retries} {'retry' if retries == 1 else 'retries'})" if retries else ""
 
 
 def _status_detail(error: Any) -> str:
