@@ -141,7 +141,7 @@ def test_the_full_space_analysis_lives_with_the_task_and_pruned_ones_are_bounded
 def test_an_internal_error_of_the_search_is_not_reported_as_unsolvable(
     robowaiter: Scenario, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    search_module = importlib.import_module("hbtp.planning.search")  # the package exports a function of that name
+    search_module = importlib.import_module("hbtp.planning.search_state")  # where the result is checked
 
     def broken(*args: object, **kwargs: object) -> SimpleNamespace:
         return SimpleNamespace(succeeded=False, executed=(), cost=0)  # a tree that misses the goal

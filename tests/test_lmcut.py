@@ -34,7 +34,7 @@ from hbtp.planning.heuristics import Deferred, Heuristic, HMax, build_heuristic,
 from hbtp.planning.lmcut import LmCut
 from helpers import brute_force, random_case, relevant_conditions, run_tree
 
-search_module = importlib.import_module("hbtp.planning.search")
+search_module = importlib.import_module("hbtp.planning.search_state")  # where the search builds its heuristic
 lmcut_module = importlib.import_module("hbtp.planning.lmcut")
 #: The ways to make LM-cut's rounds here: in Python, and in C where the extension is built.
 KERNELS = [False, True] if lmcut_module.COMPILED else [False]
