@@ -24,6 +24,7 @@ from hbtp.bt.simulate import simulate
 from hbtp.bt.verify import verify
 from hbtp.domains import DomainBuilder, load_scenario
 from hbtp.logic.execution import Run
+from hbtp.logic.relevance import relevant_to
 from hbtp.logic.task import Goal, GroundTask
 from hbtp.planning import Status, plan
 from hbtp.planning.result import PlanResult
@@ -348,7 +349,7 @@ def relevant_conditions(task: GroundTask, seed: int, count: int = 12) -> tuple[f
     the preconditions of those actions (what a search of that goal regresses)."""
     rng = random.Random(seed)
     goal = rng.sample(range(len(task.atoms)), min(3, len(task.atoms)))
-    relevant = task.relevant_to(goal)
+    relevant = relevant_to(task, goal)
     atoms = sorted(set(goal).union(*(task.actions[i].pre for i in relevant)))
     return relevant, [frozenset(rng.sample(atoms, rng.randint(1, min(5, len(atoms))))) for _ in range(count)]
 

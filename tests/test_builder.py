@@ -10,6 +10,7 @@ import hbtp.domains.builder
 from hbtp.domains import DomainBuilder
 from hbtp.errors import InputError
 from hbtp.logic import Atom
+from hbtp.logic.execution import apply_actions
 
 
 def test_doctest_example_runs() -> None:
@@ -46,7 +47,7 @@ def test_builds_actions_atoms_and_initial_state() -> None:
     assert task.predicates == {"IsClose": 1, "IsNear": 2, "IsOpen": 1, "IsStanding": 1}
     assert task.objects == ("fridge",)
     assert task.constants == ("self",)
-    state, done = task.execute([task.action("Walk(fridge)"), open_])
+    state, done = apply_actions(task, [task.action("Walk(fridge)"), open_])
     assert done == 2
     assert task.atom_id("IsOpen(fridge)") in state
 

@@ -15,6 +15,7 @@ from hbtp.errors import InputError
 from hbtp.llm import demonstrations
 from hbtp.llm.demonstrations import PoolSettings, generated_pool, pool_key
 from hbtp.llm.pool import example_pool
+from hbtp.logic.execution import apply_actions
 from hbtp.planning.generate import LEVELS, Sampling, generate_records, sample_goals
 
 HOUSE = Path(__file__).parent / "data" / "household"
@@ -36,7 +37,7 @@ def test_generated_records_validate_fit_their_level_and_are_optimal(house: Scena
         goal = house.task.resolve_goal(record.goal)
         assert window.fits(len(goal.atoms), len(record.optimal_actions))
         actions = [house.task.action(name) for name in record.optimal_actions]
-        state, applied = house.task.execute(actions)
+        state, applied = apply_actions(house.task, actions)
         assert goal.ids <= state
         assert applied == len(actions)
         assert sum(a.cost for a in actions) == record.cost == brute_force(house.task, goal.ids)[0]
@@ -53,7 +54,7 @@ def test_sampled_goals_on_random_tasks_have_optimal_plans(seed: int) -> None:
     for labelled in goals:
         assert not labelled.goal.ids <= task.initial_state
         actions = [task.actions[i] for i in labelled.plan]
-        state, applied = task.execute(actions)
+        state, applied = apply_actions(task, actions)
         assert labelled.goal.ids <= state
         assert applied == len(actions)
         assert sum(a.cost for a in actions) == labelled.cost == brute_force(task, labelled.goal.ids)[0]

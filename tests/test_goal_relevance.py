@@ -12,6 +12,7 @@ from hbtp.bt.build import tree_of
 from hbtp.bt.jsonio import tree_to_json
 from hbtp.cli import EXIT_OK, main
 from hbtp.domains import Scenario, infer_mutexes, load_pddl_scenario
+from hbtp.logic.relevance import relevant_actions
 from hbtp.planning import plan, planner_config
 from helpers import brute_force, random_case, run_tree
 
@@ -46,7 +47,7 @@ def test_the_goals_scenario_plans_the_same_tree_and_the_brute_force_optimum(seed
     goal = case.goal  # type: ignore[attr-defined]
     part = whole.for_goal(goal)
     kept = {a.name for a in part.task.actions}
-    assert kept == {whole.task.actions[i].name for i in whole.task.relevant_actions(goal)}
+    assert kept == {whole.task.actions[i].name for i in relevant_actions(whole.task, goal)}
     assert part.task.atoms == whole.task.atoms
     assert part.task.initial_state == whole.task.initial_state
     assert [a.index for a in part.task.actions] == list(range(len(part.task.actions)))

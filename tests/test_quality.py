@@ -67,6 +67,30 @@ def test_functions_are_short_and_take_few_parameters() -> None:
     assert not offenders, "\n".join(offenders)
 
 
+MAX_MODULE_LINES = 600
+MAX_CLASS_LINES = 300
+MAX_CLASS_METHODS = 25
+
+
+def test_modules_and_classes_stay_small() -> None:
+    """No module over 600 lines; no class over 300 lines or 25 methods (one job each)."""
+    import ast
+
+    offenders: list[str] = []
+    for path in sorted((ROOT / "src" / "hbtp").rglob("*.py")):
+        text = path.read_text(encoding="utf-8")
+        where = path.relative_to(ROOT)
+        if text.count("\n") > MAX_MODULE_LINES:
+            offenders.append(f"{where}: {text.count(chr(10))} lines")
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.ClassDef):
+                lines = (node.end_lineno or node.lineno) - node.lineno + 1
+                methods = sum(isinstance(item, ast.FunctionDef | ast.AsyncFunctionDef) for item in node.body)
+                if lines > MAX_CLASS_LINES or methods > MAX_CLASS_METHODS:
+                    offenders.append(f"{where}:{node.lineno} class {node.name}: {lines} lines, {methods} methods")
+    assert not offenders, "\n".join(offenders)
+
+
 # The package's layers, lowest first (docs/architecture.md): a module may import its own layer and
 # the layers below it, never one above.
 LAYERS: tuple[tuple[str, ...], ...] = (

@@ -7,6 +7,8 @@ import pytest
 from hbtp.domains import Scenario
 from hbtp.errors import InputError, UnknownSymbolError
 from hbtp.logic import Atom, GroundAction, GroundTask
+from hbtp.logic.execution import apply_actions
+from hbtp.logic.relevance import relevant_actions
 from helpers import kitchen_builder
 
 
@@ -57,7 +59,7 @@ def test_action_name_predicate_and_objects() -> None:
 # ------------------------------------------------------------------ execution
 def test_execute_runs_a_valid_plan(kitchen: GroundTask) -> None:
     plan = [kitchen.action(n) for n in ("Walk(fridge)", "Open(fridge)", "PutIn(milk,fridge)")]
-    state, done = kitchen.execute(plan)
+    state, done = apply_actions(kitchen, plan)
     assert done == 3
     assert kitchen.names(state) == [
         "IsIn(milk,fridge)",
@@ -70,19 +72,19 @@ def test_execute_runs_a_valid_plan(kitchen: GroundTask) -> None:
 def test_execute_stops_at_the_first_inapplicable_action(kitchen: GroundTask) -> None:
     walk, open_, put_in = (kitchen.action(n) for n in ("Walk(fridge)", "Open(fridge)", "PutIn(milk,fridge)"))
     # PutIn needs the fridge open: execution stops there, and Open (applicable later) is never run.
-    state, done = kitchen.execute([walk, put_in, open_])
+    state, done = apply_actions(kitchen, [walk, put_in, open_])
     assert done == 1
     assert state == walk.progress(kitchen.initial_state)
     assert kitchen.atom_id("IsOpen(fridge)") not in state
 
 
 def test_execute_from_a_given_state_and_empty_plan(kitchen: GroundTask) -> None:
-    assert kitchen.execute([]) == (kitchen.initial_state, 0)
+    assert apply_actions(kitchen, []) == (kitchen.initial_state, 0)
     start = _state(kitchen, "IsNear(self,fridge)", "IsClose(fridge)")
-    state, done = kitchen.execute([kitchen.action("Open(fridge)")], start)
+    state, done = apply_actions(kitchen, [kitchen.action("Open(fridge)")], start)
     assert done == 1
     assert state == _state(kitchen, "IsNear(self,fridge)", "IsOpen(fridge)")
-    state, done = kitchen.execute([kitchen.action("Walk(fridge)")], start)
+    state, done = apply_actions(kitchen, [kitchen.action("Walk(fridge)")], start)
     assert (state, done) == (start, 0)
 
 
@@ -241,5 +243,5 @@ def test_relevant_actions_follow_achievers_back_from_the_goal() -> None:
     builder.action("Go(home)", add=["At(home)"])
     builder.action("Sing(song)", pre=["At(home)"], add=["Sung(song)"])
     task = builder.build()
-    relevant = task.relevant_actions(task.resolve_goal("Has(cup)"))
+    relevant = relevant_actions(task, task.resolve_goal("Has(cup)"))
     assert sorted(task.actions[i].name for i in relevant) == ["Fetch(cup)", "Go(home)"]

@@ -13,6 +13,7 @@ from hbtp.domains import Scenario, load_scenario, scenario_names, write_domain, 
 from hbtp.domains.lifted import And, AtomFormula
 from hbtp.errors import InputError
 from hbtp.files import write_all_atomically
+from hbtp.logic.relevance import relevant_actions
 
 
 @click.command()
@@ -81,7 +82,7 @@ def _goal_actions(loaded: Scenario) -> int | None:
     except InputError:  # the shipped scenarios' problems hold no goal
         return None
     scenario, goal = loaded.resolve_goal(text)
-    return len(scenario.task.relevant_actions(goal))  # the actions Scenario.for_goal keeps
+    return len(relevant_actions(scenario.task, goal))  # the actions Scenario.for_goal keeps
 
 
 @click.command("export-pddl")

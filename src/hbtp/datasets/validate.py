@@ -22,6 +22,7 @@ from hbtp.datasets.records import Record
 from hbtp.datasets.shipped import DATASET_SCENARIO, load_dataset
 from hbtp.domains import load_scenario
 from hbtp.errors import InputError
+from hbtp.logic.execution import apply_actions
 from hbtp.logic.task import GroundAction, GroundTask
 
 log = logging.getLogger(__name__)
@@ -207,7 +208,7 @@ class _RecordCheck:
 
         With ``goal=None`` (a goal that did not resolve) only applicability is checked.
         """
-        state, applied = self.task.execute(actions)
+        state, applied = apply_actions(self.task, actions)
         if applied < len(actions):
             action = actions[applied]
             missing = ", ".join(self.task.names(action.pre - state))

@@ -41,6 +41,7 @@ from hbtp.errors import InputError
 from hbtp.files import InputKind, read_text
 from hbtp.logic.goals import GoalFormula
 from hbtp.logic.negation import with_negations
+from hbtp.logic.relevance import relevant_actions
 from hbtp.logic.resolve import GoalSource, negations_needed
 from hbtp.logic.tables import TaskTable
 from hbtp.logic.task import Goal, GroundTask
@@ -184,7 +185,7 @@ class Scenario:
         Downward's translator keeps for a problem's goal), the same atoms, s0 and mutexes (proved for
         the states every action reaches, so they hold where fewer act). A backward search of ``goal``
         only ever regresses through these actions: its tree and cost are the same in both."""
-        task = self.task.keeping(self.task.relevant_actions(goal))
+        task = self.task.keeping(relevant_actions(self.task, goal))
         if task is self.task:
             return self
         return dataclasses.replace(self, task=task)

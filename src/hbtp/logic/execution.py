@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 from hbtp.errors import InputError
-from hbtp.logic.task import GoalIds, GroundTask, State, disjuncts_of
+from hbtp.logic.task import GoalIds, GroundAction, GroundTask, State, disjuncts_of
 
 log = logging.getLogger(__name__)
 
@@ -193,6 +193,20 @@ class Run:
         }
 
 
+def apply_actions(task: GroundTask, actions: Sequence[GroundAction], state: State | None = None) -> tuple[State, int]:
+    """Apply ``actions`` in order from ``state`` (default: s0).
+
+    Returns the final state and the number of actions applied before the first that is not
+    applicable (``len(actions)`` when all are).
+    """
+    current = task.initial_state if state is None else state
+    for done, action in enumerate(actions):
+        if not action.applicable(current):
+            return current, done
+        current = action.progress(current)
+    return current, len(actions)
+
+
 def execute(
     policy: Policy,
     task: GroundTask,
@@ -249,6 +263,7 @@ __all__ = [
     "Tick",
     "Trace",
     "TraceStep",
+    "apply_actions",
     "execute",
     "first_match",
 ]

@@ -11,7 +11,7 @@ States and conditions are ``frozenset[int]`` of atom ids; :class:`Atom` names ar
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, TypeVar
@@ -112,29 +112,6 @@ class GroundTask:
             for atom in action.pre:
                 table[atom].append(action.index)
         return tuple(tuple(ids) for ids in table)
-
-    def relevant_actions(self, goal: Goal) -> frozenset[int]:
-        """The indices of the actions that can take part in reaching ``goal``: the achievers of its
-        literals, then of their preconditions' literals, and so on (backward relevance, the
-        operators Fast Downward's translator keeps as "necessary")."""
-        return self.relevant_to(atom for disjunct in goal.disjuncts for atom in disjunct)
-
-    def relevant_to(self, atoms: Iterable[int]) -> frozenset[int]:
-        """The indices of the actions relevant to reaching ``atoms`` (see :meth:`relevant_actions`)."""
-        seen: set[int] = set()
-        found: set[int] = set()
-        pending = list(atoms)
-        achievers, actions = self.achievers, self.actions
-        while pending:
-            atom = pending.pop()
-            if atom in seen:
-                continue
-            seen.add(atom)
-            for index in achievers[atom]:
-                if index not in found:
-                    found.add(index)
-                    pending.extend(actions[index].pre)
-        return frozenset(found)
 
     @cached_property
     def symbols(self) -> frozenset[str]:
@@ -275,20 +252,6 @@ class GroundTask:
     def resolve_goal(self, goal: str | Goal | GoalFormula | Iterable[Atom | str]) -> Goal:
         """``goal`` resolved against this task (see :func:`hbtp.logic.resolve.resolve_goal`)."""
         return resolve_goal(self, goal)
-
-    # ---------------------------------------------------------------- execute
-    def execute(self, actions: Sequence[GroundAction], state: State | None = None) -> tuple[State, int]:
-        """Apply ``actions`` in order from ``state`` (default: s0).
-
-        Returns the final state and the number of actions applied before the first that is not
-        applicable (``len(actions)`` when all are).
-        """
-        current = self.initial_state if state is None else state
-        for done, action in enumerate(actions):
-            if not action.applicable(current):
-                return current, done
-            current = action.progress(current)
-        return current, len(actions)
 
     def restricted(self, action_ids: Iterable[int]) -> tuple[GroundAction, ...]:
         """The actions with the given indices, in task order (an action space for the planner)."""

@@ -44,6 +44,7 @@ from typing import Literal, Protocol, overload
 from hbtp import compiled as extensions
 from hbtp.deadline import Deadline
 from hbtp.errors import InputError
+from hbtp.logic.relevance import relevant_to
 from hbtp.logic.tables import TaskTable
 from hbtp.logic.task import GroundAction, GroundTask
 from hbtp.planning.flow import StateEquation
@@ -587,6 +588,6 @@ def _lmcut_space(task: GroundTask, actions: Sequence[GroundAction], goal: Collec
     the preconditions of their achievers, LM-cut reads only the actions relevant to the goal (h_max,
     zones and cuts stay among them): the others give the same values and only cost time. When they
     are few, the whole space's LM-cut, kept with the task for every goal, is cheaper than a new one."""
-    relevant = task.relevant_to(goal)
+    relevant = relevant_to(task, goal)
     space = [a for a in actions if a.index in relevant]
     return actions if len(space) * 4 > len(actions) * 3 else space

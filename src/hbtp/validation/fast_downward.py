@@ -25,6 +25,7 @@ from hbtp.domains import write_grounded
 from hbtp.domains.pddl_writer import GOAL_ACTION, keyword_safe_predicates
 from hbtp.errors import BackendError, InputError
 from hbtp.files import InputKind, read_text
+from hbtp.logic.execution import apply_actions
 from hbtp.logic.tables import TaskTable
 from hbtp.logic.task import Goal, GroundAction, GroundTask
 from hbtp.planning import Status
@@ -247,7 +248,7 @@ def _replay(
         message = f"Fast Downward's plan has an unknown action {missing}"
         return FastDownwardRun(RunStatus.ERROR, time_s=elapsed, engine=engine, message=message)
     readable = tuple(action.name for action in actions)
-    state, applied = task.execute(actions)
+    state, applied = apply_actions(task, actions)
     cost = sum(action.cost for action in actions)
     problem = ""
     if applied < len(actions) or not goal.holds(state):
