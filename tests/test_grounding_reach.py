@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+import hbtp.domains.ground_reach as ground_reach
 import hbtp.domains.grounding as grounding
 from hbtp.cli import main
 from hbtp.domains import ground, read_domain_file, read_problem_file
@@ -25,7 +26,7 @@ IPC = Path(__file__).resolve().parents[2] / "shared" / "benchmarks" / "ipc"
 @pytest.fixture
 def forced(monkeypatch: pytest.MonkeyPatch) -> None:
     """Every grounding takes the fallback, as if the static bound were over the limit."""
-    monkeypatch.setattr(grounding._Grounder, "check_size", lambda self, limit: "(forced by the test)")
+    monkeypatch.setattr(grounding, "check_size", lambda prepared, limit: "(forced by the test)")
 
 
 def _actions(task: GroundTask) -> set[tuple[str, tuple[str, ...], tuple[str, ...], tuple[str, ...], int]]:
@@ -41,7 +42,7 @@ def _both(domain_file: Path, problem_file: Path, monkeypatch: pytest.MonkeyPatch
     problem = read_problem_file(problem_file, domain)
     normal = ground(domain, problem, reachable_only=True)
     with monkeypatch.context() as patch:
-        patch.setattr(grounding._Grounder, "check_size", lambda self, limit: "(forced by the test)")
+        patch.setattr(grounding, "check_size", lambda prepared, limit: "(forced by the test)")
         reached = ground(domain, problem, reachable_only=True)
     return normal, reached
 
@@ -124,8 +125,8 @@ def test_the_fallback_is_refused_past_the_limit_in_one_line(
 
 
 def test_the_fallbacks_work_is_bounded(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, forced: None) -> None:
-    monkeypatch.setattr(grounding, "REACH_WORK", 1)
-    monkeypatch.setattr(grounding, "REACH_FLOOR", 1)
+    monkeypatch.setattr(ground_reach, "REACH_WORK", 1)
+    monkeypatch.setattr(ground_reach, "REACH_FLOOR", 1)
     domain_file, problem_file = _gated(tmp_path, 300, 200)
     domain = read_domain_file(domain_file)
     with pytest.raises(GroundingError, match="took more than 1 units of work per allowed action"):
