@@ -203,7 +203,7 @@ def test_symmetry_pruning_is_off_with_a_heuristic_path(caplog: pytest.LogCapture
     task = gripper(4)
     goal = task.resolve_goal([f"At(b{i},b)" for i in range(4)])
     hints = Hints(path=("Pick(b0,a,left)",))
-    with caplog.at_level(logging.INFO, logger="hbtp.planning.search"):
+    with caplog.at_level(logging.INFO, logger="hbtp.planning.search_state"):
         with_path = plan(task, goal, planner_config("hbtp-s", symmetry=True), hints=hints)
     assert "no symmetry pruning: it needs the whole action space and no heuristic path" in caplog.text
     assert with_path.solved
