@@ -102,7 +102,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("bt",),
     ("llm",),
     ("pipeline", "runtime"),
-    ("bench", "validation"),
+    ("bench", "validation", "train"),
     ("cli", "__main__"),
 )
 

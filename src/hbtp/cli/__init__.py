@@ -39,6 +39,7 @@ COMMANDS: dict[str, str] = {
     "plan": "hbtp.cli.plan_command:plan_command",
     "run": "hbtp.cli.run_command:run_command",
     "scenarios": "hbtp.cli.domain_commands:scenarios",
+    "train": "hbtp.cli.train_command:train_command",
     "validate-optimal": "hbtp.cli.validate_command:validate_optimal",
     "verify": "hbtp.cli.run_command:verify_command",
     "view": "hbtp.cli.view_command:view_command",

@@ -19,6 +19,7 @@ from hbtp.domains.pruned import PrunedWorld
 from hbtp.domains.scenarios import ScenarioOptions, read_mutex_file
 from hbtp.errors import InputError
 from hbtp.files import check_output
+from hbtp.llm.backends.adapters import AdapterChoice
 from hbtp.llm.backends.registry import BackendOptions
 from hbtp.llm.prompt import RETRIEVALS
 
@@ -189,14 +190,22 @@ def _positive_seconds(context: click.Context, parameter: click.Parameter, value:
     return value
 
 
+@dataclass(frozen=True)
+class LocalModelOptions:
+    """The options of the local model (``--model-path``, ``--threads``, ``--prompt-cache``, ``--adapter``)."""
+
+    model_path: str | None
+    threads: int | None
+    prompt_cache: bool
+    adapter: AdapterChoice
+
+
 def _backend(
     model: str | None,
     base_url: str | None,
     api_key: str | None,
     llm_timeout: float,
-    model_path: str | None,
-    threads: int | None,
-    prompt_cache: bool,
+    local: LocalModelOptions,
     noise_drop: float,
     noise_insert: float,
     no_constraints: bool,
@@ -206,18 +215,39 @@ def _backend(
         base_url=base_url,
         api_key=api_key,
         timeout=llm_timeout,
-        model_path=model_path,
-        threads=threads,
-        prompt_cache=prompt_cache,
+        model_path=local.model_path,
+        threads=local.threads,
+        prompt_cache=local.prompt_cache,
         drop=noise_drop,
         insert=noise_insert,
         constrain=not no_constraints,
+        adapter=local.adapter,
     )
 
 
-#: The LLM back-end options (``--model``, ``--base-url``, ``--api-key``, ``--llm-timeout``,
-#: ``--model-path``, ``--threads``, ``--prompt-cache``, ``--noise-drop``, ``--noise-insert``,
-#: ``--no-constraints``), passed on as ``backend: BackendOptions``.
+local_model_options = option_group(
+    "local",
+    LocalModelOptions,
+    click.option("--model-path", help="GGUF file for --llm local (default: the packaged Gemma-3 270M)."),
+    click.option("--threads", type=int, help="CPU threads for --llm local."),
+    click.option(
+        "--prompt-cache",
+        is_flag=True,
+        help="--llm local: reuse the prompt cache (faster; answers may then depend on the order of requests).",
+    ),
+    click.option(
+        "--adapter",
+        default="auto",
+        show_default=True,
+        callback=lambda _context, _parameter, value: AdapterChoice.parse(value),
+        help="--llm local: the LoRA adapter that teaches the model the world: auto (the scenario's shipped "
+        "one, or the one hbtp train --pddl left for these PDDL files), none, or a file.",
+    ),
+)
+
+
+#: The LLM back-end options (``--model``, ``--base-url``, ``--api-key``, ``--llm-timeout``, the local
+#: model's, ``--noise-drop``, ``--noise-insert``, ``--no-constraints``), passed on as ``backend: BackendOptions``.
 backend_options = option_group(
     "backend",
     _backend,
@@ -232,13 +262,7 @@ backend_options = option_group(
         callback=_positive_seconds,
         help="Seconds for one LLM call (its retries and reading the reply included).",
     ),
-    click.option("--model-path", help="GGUF file for --llm local (default: the packaged Gemma-3 270M)."),
-    click.option("--threads", type=int, help="CPU threads for --llm local."),
-    click.option(
-        "--prompt-cache",
-        is_flag=True,
-        help="--llm local: reuse the prompt cache (faster; answers may then depend on the order of requests).",
-    ),
+    local_model_options,
     click.option("--noise-drop", type=float, default=0.3, show_default=True, help="noisy-oracle: fraction dropped."),
     click.option(
         "--noise-insert", type=float, default=0.3, show_default=True, help="noisy-oracle: wrong actions added."

@@ -60,6 +60,9 @@ class Request:
     #: ``goal`` as the loop resolved it (bookkeeping, like ``round``): an oracle that plans in the
     #: same task answers from it instead of reading the text again.
     resolved: Goal | None = field(default=None, compare=False, repr=False)
+    #: The completion prompt is the short one of a model taught the world (a local adapter answers
+    #: it; a few-shot prompt is answered by the base model alone).
+    taught: bool = False
 
     def key(self) -> str:
         """A stable hash of what the model is asked (for record/replay).

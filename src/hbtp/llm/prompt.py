@@ -68,6 +68,9 @@ class PromptOptions:
     #: Constrained decoding (:mod:`hbtp.llm.constrain`): requests carry the reply's grammar and
     #: schema, with lists bounded by the demonstrations shown; backends that can, enforce it.
     constrain: bool = True
+    #: The backend is a model taught the domain (a local adapter, :mod:`hbtp.train`): its
+    #: completion prompt is the question alone (:func:`taught_prompt`), no vocabulary, no demonstrations.
+    taught: bool = False
 
     def __post_init__(self) -> None:
         if isinstance(self.style, str):
@@ -77,9 +80,10 @@ class PromptOptions:
                 choices = ", ".join(s.value for s in PromptStyle)
                 raise InputError(f"unknown prompt style {self.style!r}; choose one of: {choices}") from None
 
-    def for_backend(self, style: PromptStyle) -> PromptOptions:
-        """These options with ``style`` where none was chosen."""
-        return self if self.style is not None else replace(self, style=style)
+    def for_backend(self, style: PromptStyle, taught: bool = False) -> PromptOptions:
+        """These options with ``style`` where none was chosen, for a backend ``taught`` the domain or not."""
+        chosen = self if self.style is not None else replace(self, style=style)
+        return chosen if chosen.taught == taught else replace(chosen, taught=taught)
 
 
 @dataclass(frozen=True)
@@ -162,6 +166,17 @@ def scenario_text(task: GroundTask | ActionNames, include_objects: bool = True) 
     return "\n".join(lines)
 
 
+def taught_prompt(goal: str) -> str:
+    """The completion prompt a taught model is asked, and trained on: the goal and the reply's start."""
+    return f"Goals: {_normal_goal(goal)}\nOptimal Actions:"
+
+
+def taught_reply(record: Record) -> str:
+    """What a taught model learns to answer :func:`taught_prompt` with: the record's three lines,
+    then the blank line that ends a reply (a stop string)."""
+    return record.reply_block().removeprefix("Optimal Actions:") + "\n\n"
+
+
 def build_request(
     task: GroundTask | ActionNames,
     goal: str,
@@ -171,8 +186,10 @@ def build_request(
     scenario: str = "",
     avoid: Iterable[str] = (),
 ) -> Request:
-    """The first question for ``goal`` (round 0), in both shapes."""
-    examples = retrieve_examples(goal, pool, options.examples, options.exclude_same_goal, options.retrieval)
+    """The first question for ``goal`` (round 0), in both shapes (the completion prompt of a taught
+    model is the question alone)."""
+    shown = 0 if options.taught else options.examples
+    examples = retrieve_examples(goal, pool, shown, options.exclude_same_goal, options.retrieval)
     demos = "\n\n".join(format_example(r) for r in examples)
     closest_last = "\n\n".join(format_example(r) for r in reversed(examples))
     goal_text = _normal_goal(goal)
@@ -184,7 +201,7 @@ def build_request(
         if part
     )
     completion = (closest_last + "\n\n" if closest_last else "") + (avoid_text + "\n" if avoid_text else "")
-    completion += f"Goals: {goal_text}\nOptimal Actions:"
+    completion += taught_prompt(goal_text)
     constraint = _constraint(task, examples, options)
     return Request(
         messages=(Message("system", system), Message("user", f"Goals: {goal_text}" + _suffix(avoid_text))),
@@ -194,6 +211,7 @@ def build_request(
         max_tokens=_max_tokens(options, constraint),
         stop=("\n\n", "Goals:"),
         constraint=constraint,
+        taught=options.taught,
     )
 
 
@@ -283,6 +301,7 @@ def feedback_request(
         completion_prompt=completion,
         round=round_,
         attempt=0,
+        taught=False,  # demonstrations: a taught model's base answers feedback rounds
     )
 
 

@@ -195,7 +195,7 @@ class _Loop:
         self.limit = None if options.time_limit is None else Deadline(options.time_limit, started)
         self.world, self.names, self.goal = world, world.names, goal
         self.pool, self.options = pool, options
-        self.prompt = options.prompt.for_backend(backend.prompt_style)
+        self.prompt = options.prompt.for_backend(backend.prompt_style, taught=getattr(backend, "taught", False))
         self.config = planner_config(options.planner, heuristic=options.heuristic)
         self.progress = options.progress or _quiet
         self.asker = _Asker(self.names, backend, options.grammar_retries, self.progress)

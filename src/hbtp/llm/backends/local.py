@@ -100,6 +100,14 @@ def _gemma_package() -> ModuleType:
     return module
 
 
+def default_model_sha256() -> str | None:
+    """The sha256 of the packaged model (``None`` without the package): what adapters record."""
+    try:
+        return getattr(_gemma_package(), "EXPECTED_SHA256", None)
+    except BackendError:
+        return None
+
+
 def default_model_path() -> Path:
     """The Gemma-3 270M GGUF in :func:`model_cache_dir`, assembled from its PyPI package on first use.
 
@@ -358,6 +366,7 @@ class LocalBackend:
         seed: int = 0,
         prompt_cache: bool = False,
         constrain: bool = True,
+        adapter: str | Path | None = None,
     ) -> None:
         if importlib.util.find_spec("xllamacpp") is None:
             raise BackendError(f"the local model needs xllamacpp; {_INSTALL_LOCAL}")
@@ -370,7 +379,11 @@ class LocalBackend:
         self.prompt_cache = prompt_cache
         #: Send a request's grammar (``Request.constraint``); turned off if llama.cpp refuses one.
         self.constrain = constrain
-        self.name = f"local:{self.model_path.stem if self.model_path else DEFAULT_MODEL_ALIAS}"
+        #: A LoRA adapter that teaches the model the world (:mod:`hbtp.llm.backends.adapters`), checked
+        #: by the caller; ``None``: the base model.
+        self.adapter: Path | None = None if adapter is None else Path(adapter)
+        model = self.model_path.stem if self.model_path else DEFAULT_MODEL_ALIAS
+        self.name = f"local:{model}" + (f"+{self.adapter.stem}" if self.adapter is not None else "")
         #: Seconds the model took to load (``None`` until it is loaded).
         self.load_seconds: float | None = None
         self._server: Any = None
@@ -394,12 +407,31 @@ class LocalBackend:
                 api_key=secrets.token_urlsafe(24),  # the always-on listener serves no one else
             )
             started = time.perf_counter()
-            self._server = start_server(xllamacpp, params, what=f"the local model {path}")
+            self._server = self._start(xllamacpp, params, path)
             self.model_path = path
             self.load_seconds = time.perf_counter() - started
             log.info(
                 "loaded %s in %.1f s (%d threads, context %d)", path.name, self.load_seconds, self.threads, self.context
             )
+
+    def _start(self, xllamacpp: ModuleType, params: Any, path: Path) -> Any:
+        """The server with the adapter; without it (a one-line warning) when llama.cpp refuses it."""
+        if self.adapter is None:
+            return start_server(xllamacpp, params, what=f"the local model {path}")
+        params.lora_adapters = [xllamacpp.CommonAdapterLoraInfo(str(self.adapter), 1.0)]
+        try:
+            return start_server(xllamacpp, params, what=f"the local model {path} with the adapter {self.adapter}")
+        except BackendError:
+            log.warning("llama.cpp refused the adapter %s; the base model answers", self.adapter)
+            self.adapter = None
+            params.lora_adapters = []
+            return start_server(xllamacpp, params, what=f"the local model {path}")
+
+    @property
+    def taught(self) -> bool:
+        """Whether the model answers through an adapter that taught it the world (it is then asked
+        the short prompt, :func:`hbtp.llm.prompt.taught_prompt`)."""
+        return self.adapter is not None
 
     @property
     def loaded(self) -> bool:
@@ -439,6 +471,8 @@ class LocalBackend:
             body["top_k"] = 1
         if request.constraint is not None and self.constrain:
             body["grammar"] = request.constraint.gbnf
+        if self.adapter is not None and not request.taught:  # a few-shot prompt: the base model answers
+            body["lora"] = [{"id": 0, "scale": 0.0}]
         started = time.perf_counter()
         result = self._answer(server, body, deadline)
         reply = reply_from_result(result, time.perf_counter() - started, model=str(self.model_path))

@@ -5,12 +5,13 @@
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError
 from hbtp.llm.backend import Backend
+from hbtp.llm.backends.adapters import AdapterChoice, choose_adapter, world_key
 from hbtp.llm.backends.oracle import InstructionOracle, NoisyOracleBackend, OracleBackend
 from hbtp.llm.backends.replay import RecordingBackend, ReplayBackend
 
@@ -87,6 +88,7 @@ class BackendOptions:
     record: str | None = None  # wrap the backend and record every exchange to this JSONL file
     prompt_cache: bool = False  # local: reuse llama.cpp's prompt cache (faster, answers depend on order)
     constrain: bool = True  # send the reply's grammar (local) or JSON schema (openai)
+    adapter: AdapterChoice = field(default_factory=AdapterChoice)  # local: the LoRA adapter (auto: the world's own)
 
 
 def make_backend(spec: LlmSpec | str, scenario: Scenario, options: BackendOptions = BackendOptions()) -> Backend:
@@ -122,10 +124,21 @@ def make_backend(spec: LlmSpec | str, scenario: Scenario, options: BackendOption
             seed=options.seed,
             prompt_cache=options.prompt_cache,
             constrain=options.constrain,
+            adapter=_adapter_of(scenario, options),
         )
     if options.record:
         backend = RecordingBackend(backend, options.record)
     return backend
+
+
+def _adapter_of(scenario: Scenario, options: BackendOptions) -> Path | None:
+    """The adapter the local model uses in ``scenario`` (see :mod:`hbtp.llm.backends.adapters`)."""
+    from hbtp.llm.backends.local import default_model_sha256
+
+    files = (Path(scenario.domain_file), Path(scenario.problem_file))
+    world = world_key(*files) if all(path.is_file() for path in files) else None
+    base = default_model_sha256() if options.model_path is None else None
+    return choose_adapter(options.adapter, scenario=scenario.name, world=world, base_sha256=base)
 
 
 def make_goal_backend(spec: LlmSpec | str, scenario: Scenario, options: BackendOptions = BackendOptions()) -> Backend:

@@ -1,0 +1,208 @@
+"""LoRA adapters of the local model: which one a world uses, and whether a file fits.
+
+An adapter teaches the shipped Gemma-3 270M one world (``hbtp train``, :mod:`hbtp.train`): a GGUF
+LoRA file that llama.cpp applies to the unchanged base model. Which one ``--llm local`` uses
+(:class:`AdapterChoice`): ``--adapter PATH``; ``--adapter none``; by default the world's own, the
+shipped adapter of a shipped scenario (package data, ``hbtp/llm/adapters/``), else the one
+``hbtp train --pddl`` left in the cache for that world.
+
+An adapter records what it was made for (GGUF metadata, read here without the ``gguf`` package):
+the base model's sha256 and the world's key (a hash of its PDDL files). A file that is not a GGUF
+adapter, or was made for another base model or another world, is left out with a one-line warning,
+and the base model answers as it would without one.
+"""
+
+from __future__ import annotations
+
+import enum
+import hashlib
+import logging
+import struct
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any, BinaryIO
+
+from hbtp.errors import InputError
+
+log = logging.getLogger(__name__)
+
+#: Metadata keys hbtp writes into an adapter (beside llama.cpp's ``general.*`` and ``adapter.*``).
+KEY_BASE = "hbtp.base_sha256"
+KEY_WORLD = "hbtp.world"
+KEY_FORMAT = "hbtp.prompt_format"
+#: The prompt format adapters are trained on (:func:`hbtp.llm.prompt.taught_prompt`); an adapter of
+#: another format would be asked questions it was never taught.
+PROMPT_FORMAT = 1
+#: The most metadata entries read from an adapter (a real one has about a dozen).
+_MAX_FIELDS = 4096
+_MAX_STRING = 1 << 20
+
+
+class AdapterMode(enum.Enum):
+    """``--adapter``: the world's own (auto), none, or a file."""
+
+    AUTO = "auto"
+    NONE = "none"
+    FILE = "file"
+
+
+@dataclass(frozen=True)
+class AdapterChoice:
+    """Which adapter the local model uses (see the module docstring)."""
+
+    mode: AdapterMode = AdapterMode.AUTO
+    path: Path | None = None
+
+    @classmethod
+    def parse(cls, text: str) -> AdapterChoice:
+        """``auto``, ``none`` or a file name (a file so named: ``./none``)."""
+        if text in ("auto", "none"):
+            return cls(AdapterMode(text))
+        if not text:
+            raise InputError("--adapter needs auto, none or a file name")
+        return cls(AdapterMode.FILE, Path(text))
+
+
+def world_key(domain_file: str | Path, problem_file: str | Path) -> str:
+    """The key of a world: a hash of its PDDL files' bytes (what an adapter was trained on)."""
+    digest = hashlib.sha256()
+    for path in (domain_file, problem_file):
+        digest.update(Path(path).read_bytes())
+        digest.update(b"\0")
+    return digest.hexdigest()[:32]
+
+
+def shipped_adapter(scenario: str) -> Path | None:
+    """The adapter shipped for a shipped scenario, if there is one."""
+    entry = resources.files("hbtp.llm") / "adapters" / f"{scenario}.gguf"
+    return Path(str(entry)) if entry.is_file() else None
+
+
+def cache_folder() -> Path:
+    """Where ``hbtp train --pddl`` leaves adapters (the model cache's ``adapters`` folder)."""
+    from hbtp.llm.backends.local import model_cache_dir
+
+    return model_cache_dir().parent / "adapters"
+
+
+def cached_adapter(key: str) -> Path:
+    """Where the adapter trained for the world ``key`` lives in the cache (it may not exist)."""
+    return cache_folder() / f"{key}.gguf"
+
+
+def read_metadata(path: Path) -> dict[str, Any]:
+    """The metadata of a GGUF file (scalars and strings; arrays are skipped); :class:`ValueError`
+    for a file that is not GGUF."""
+    with path.open("rb") as handle:
+        if handle.read(4) != b"GGUF":
+            raise ValueError("not a GGUF file")
+        version, _tensors, count = struct.unpack("<IQQ", _exactly(handle, 20))
+        if version < 2:
+            raise ValueError(f"GGUF version {version} is too old")
+        if count > _MAX_FIELDS:
+            raise ValueError(f"{count} metadata entries (at most {_MAX_FIELDS} are read)")
+        fields: dict[str, Any] = {}
+        for _ in range(count):
+            key = _string(handle)
+            (kind,) = struct.unpack("<I", _exactly(handle, 4))
+            fields[key] = _value(handle, kind)
+    return fields
+
+
+_SCALARS = {0: "<B", 1: "<b", 2: "<H", 3: "<h", 4: "<I", 5: "<i", 6: "<f", 7: "<?", 10: "<Q", 11: "<q", 12: "<d"}
+
+
+def _value(handle: BinaryIO, kind: int) -> Any:
+    if kind in _SCALARS:
+        form = _SCALARS[kind]
+        return struct.unpack(form, _exactly(handle, struct.calcsize(form)))[0]
+    if kind == 8:
+        return _string(handle)
+    if kind == 9:
+        item, count = struct.unpack("<IQ", _exactly(handle, 12))
+        if count > _MAX_STRING:
+            raise ValueError("an array too long for an adapter's metadata")
+        for _ in range(count):
+            _value(handle, item)
+        return None
+    raise ValueError(f"unknown GGUF value type {kind}")
+
+
+def _string(handle: BinaryIO) -> str:
+    (length,) = struct.unpack("<Q", _exactly(handle, 8))
+    if length > _MAX_STRING:
+        raise ValueError("a metadata string too long")
+    return _exactly(handle, length).decode("utf-8", errors="replace")
+
+
+def _exactly(handle: BinaryIO, size: int) -> bytes:
+    data = handle.read(size)
+    if len(data) != size:
+        raise ValueError("the file ends too early")
+    return data
+
+
+def unfit(path: Path, *, world: str | None, base_sha256: str | None) -> str | None:
+    """Why the adapter ``path`` does not fit (``None`` when it does): not a GGUF LoRA adapter, made
+    for another base model, another world, or another prompt format."""
+    try:
+        fields = read_metadata(path)
+    except (OSError, ValueError, struct.error) as error:
+        return f"it cannot be read as a GGUF adapter ({error})"
+    if fields.get("general.type") != "adapter" or fields.get("adapter.type") != "lora":
+        return "it is not a LoRA adapter"
+    made_for = fields.get(KEY_BASE)
+    if base_sha256 and made_for and made_for != base_sha256:
+        return "it was made for another base model"
+    if world and fields.get(KEY_WORLD) not in (None, world):
+        return "it was made for another world (other PDDL files)"
+    if fields.get(KEY_FORMAT, PROMPT_FORMAT) != PROMPT_FORMAT:
+        return f"it was trained on prompt format {fields.get(KEY_FORMAT)}, not {PROMPT_FORMAT}"
+    return None
+
+
+def _candidate(choice: AdapterChoice, scenario: str, world: str | None) -> Path | None:
+    """The file ``choice`` names, or the world's own; ``None`` when there is none."""
+    if choice.mode is AdapterMode.NONE:
+        return None
+    if choice.mode is AdapterMode.FILE:
+        path = choice.path
+        if path is None or not path.is_file():
+            log.warning("adapter %s: no such file; the base model answers", path)
+            return None
+        return path
+    shipped = shipped_adapter(scenario)
+    if shipped is not None or world is None:
+        return shipped
+    cached = cached_adapter(world)
+    return cached if cached.is_file() else None
+
+
+def choose_adapter(choice: AdapterChoice, *, scenario: str, world: str | None, base_sha256: str | None) -> Path | None:
+    """The adapter file the local model uses for ``scenario`` (the world ``world``), checked, or
+    ``None`` (the base model) when there is none or it does not fit (a one-line warning)."""
+    candidate = _candidate(choice, scenario, world)
+    if candidate is None:
+        return None
+    reason = unfit(candidate, world=world, base_sha256=base_sha256)
+    if reason is not None:
+        log.warning("adapter %s is not used: %s; the base model answers", candidate, reason)
+        return None
+    return candidate
+
+
+__all__ = [
+    "KEY_BASE",
+    "KEY_FORMAT",
+    "KEY_WORLD",
+    "PROMPT_FORMAT",
+    "AdapterChoice",
+    "AdapterMode",
+    "cached_adapter",
+    "choose_adapter",
+    "read_metadata",
+    "shipped_adapter",
+    "unfit",
+    "world_key",
+]

@@ -1,0 +1,19 @@
+"""Teaching the local model a world (``hbtp train``): examples the planner labels, a LoRA adapter
+trained on them, written for llama.cpp, and judged on held-back goals.
+
+Needs the ``train`` extra (torch, transformers, peft, gguf); nothing else in hbtp imports this.
+"""
+
+from hbtp.train.examples import Example, ExampleKind, ExampleSet, LeakError, make_examples
+from hbtp.train.lora import TrainingStopped, TrainReport, TrainSettings
+
+__all__ = [
+    "Example",
+    "ExampleKind",
+    "ExampleSet",
+    "LeakError",
+    "TrainReport",
+    "TrainSettings",
+    "TrainingStopped",
+    "make_examples",
+]

@@ -1,0 +1,124 @@
+"""How well a taught model answers goals it was never trained on.
+
+Each held-back example's goal is asked of the local model with the adapter, as ``--llm local``
+asks it (the short prompt, constrained decoding), and the answer is judged three ways:
+
+* exact: the action list is the label's (one optimal plan of several, so this is strict);
+* covered: the predicates and objects named include those of the label's plan;
+* NF: the planner, searching only the space the answer names (HBTP-S, as a loop round does),
+  finds a tree: the paper's "solved without feedback".
+
+The model runs in a process of its own (:func:`evaluate_in_child`): torch, which trained it, and
+llama.cpp each bring an OpenMP runtime, and one process should hold one.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import multiprocessing
+import time
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from hbtp.domains import Scenario
+from hbtp.llm.backend import PromptStyle
+from hbtp.llm.backends.local import LocalBackend
+from hbtp.llm.parse import parse_reply
+from hbtp.llm.prompt import PromptOptions, build_request
+from hbtp.llm.vocabulary import as_names
+from hbtp.planning import Limits, plan
+from hbtp.planning.planners import Space
+from hbtp.train.examples import Example
+
+log = logging.getLogger(__name__)
+
+#: Seconds a judging search may take (a loop round's default).
+ROUND_SECONDS = 5.0
+
+
+@dataclass(frozen=True)
+class HeldOutScore:
+    """The share of held-back goals answered exactly, covered and solved without feedback (NF),
+    and the model's median seconds per answer."""
+
+    examples: int
+    exact: float
+    covered: float
+    nf: float
+    median_seconds: float
+
+    def to_dict(self) -> dict[str, float | int]:
+        return asdict(self)
+
+
+def _label(example: Example) -> tuple[tuple[str, ...], frozenset[str], frozenset[str]]:
+    parsed = parse_reply("Optimal Actions:" + example.reply)
+    hints = parsed.hints
+    return tuple(hints.path), frozenset(hints.predicates), frozenset(hints.objects)
+
+
+def evaluate(scenario: Scenario, adapter: Path | None, examples: Sequence[Example], threads: int = 2) -> HeldOutScore:
+    """Ask every example's goal of the local model (with ``adapter``) and judge the answers."""
+    backend = LocalBackend(adapter=adapter, threads=threads)
+    names = as_names(scenario.task)
+    options = PromptOptions(style=PromptStyle.COMPLETION, taught=adapter is not None)
+    exact = covered = solved = 0
+    seconds: list[float] = []
+    try:
+        for example in examples:
+            request = build_request(names, example.goal, [], options)
+            reply = backend.complete(request)
+            seconds.append(reply.seconds)
+            hints = parse_reply("Optimal Actions:" + reply.text).hints
+            path, predicates, objects = _label(example)
+            exact += tuple(hints.path) == path
+            covered += predicates <= set(hints.predicates) and objects <= set(hints.objects)
+            result = plan(
+                scenario.task, example.goal, "hbtp-s", hints=hints, space=Space.PRUNED, heuristic="none",
+                mutexes=scenario.mutexes, limits=Limits(time_s=ROUND_SECONDS),
+            )  # fmt: skip
+            solved += result.solved
+    finally:
+        backend.close()
+    count = max(1, len(examples))
+    middle = sorted(seconds)[len(seconds) // 2] if seconds else 0.0
+    return HeldOutScore(len(examples), exact / count, covered / count, solved / count, round(middle, 3))
+
+
+def _child(source: dict[str, object], adapter: str | None, examples: list[dict[str, str]], out: str) -> None:
+    from hbtp.domains import load_pddl_scenario, load_scenario
+
+    name, pddl = source.get("scenario"), source.get("pddl")
+    if isinstance(name, str):
+        loaded = load_scenario(name)
+    elif isinstance(pddl, list | tuple) and len(pddl) == 2:
+        loaded = load_pddl_scenario(str(pddl[0]), str(pddl[1]))
+    else:
+        raise ValueError(f"no world in {source!r}")
+    score = evaluate(loaded, Path(adapter) if adapter else None, [Example.from_dict(e) for e in examples])
+    Path(out).write_text(json.dumps(score.to_dict()), encoding="utf-8")
+
+
+def evaluate_in_child(
+    source: dict[str, object], adapter: Path | None, examples: Sequence[Example], work: Path
+) -> HeldOutScore:
+    """:func:`evaluate` in a fresh process (see the module docstring); ``source`` names the world
+    (``{"scenario": name}`` or ``{"pddl": [domain, problem]}``)."""
+    out = work / "held_out.json"
+    out.unlink(missing_ok=True)
+    context = multiprocessing.get_context("spawn")
+    payload = [e.to_dict() for e in examples]
+    started = time.monotonic()
+    child = context.Process(target=_child, args=(source, str(adapter) if adapter else None, payload, str(out)))
+    child.start()
+    child.join()
+    if child.exitcode != 0 or not out.is_file():
+        log.warning("the held-out evaluation failed (exit code %s)", child.exitcode)
+        return HeldOutScore(len(examples), float("nan"), float("nan"), float("nan"), time.monotonic() - started)
+    data = json.loads(out.read_text(encoding="utf-8"))
+    return HeldOutScore(**data)
+
+
+__all__ = ["ROUND_SECONDS", "HeldOutScore", "evaluate", "evaluate_in_child"]

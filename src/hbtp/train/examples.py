@@ -1,0 +1,179 @@
+"""Training examples for a taught model, labelled by the planner, never from an evaluation set.
+
+A hints example is a sampled goal (:func:`hbtp.planning.generate.sample_goals`: always solvable,
+labelled with a cost-optimal plan) as the short prompt a taught model is asked
+(:func:`hbtp.llm.prompt.taught_prompt`) and the reply it must give: the plan, its action predicates
+and objects (:func:`hbtp.llm.prompt.taught_reply`). Goals come from several difficulty levels.
+
+No goal of an evaluation set is trained on: the paper's Table I and Table II sets and the shipped
+instruction dataset of the world's scenario. They are left out while sampling, and
+:func:`check_disjoint` refuses a set that holds one (:class:`LeakError`). A share of the examples
+is held back (never trained on) to measure the taught model.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import enum
+import random
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+from hbtp.datasets import dataset_names, load_dataset
+from hbtp.datasets.instructions import instruction_scenarios, load_instructions
+from hbtp.datasets.records import Record
+from hbtp.datasets.shipped import DATASET_SCENARIO
+from hbtp.domains import Scenario
+from hbtp.errors import InputError
+from hbtp.llm.prompt import taught_prompt, taught_reply
+from hbtp.logic.goals import parse_goal
+from hbtp.planning.generate import LEVELS, Sampling, generate_records
+
+#: A goal as a set of disjuncts, each a set of literals in the datasets' spelling: two spellings of
+#: one goal (other order, other spaces) have the same key.
+GoalKey = frozenset[frozenset[str]]
+
+#: The difficulty levels examples are drawn from, with their shares (the paper's easy, medium and
+#: hard tasks, and the demonstration pools' wider mix).
+LEVEL_SHARES: tuple[tuple[str, float], ...] = (("any", 0.4), ("easy", 0.2), ("medium", 0.2), ("hard", 0.2))
+
+
+class LeakError(InputError):
+    """Training examples that hold a goal of an evaluation set."""
+
+
+class ExampleKind(enum.Enum):
+    """What an example teaches: the hints of a goal, or the goal of an instruction."""
+
+    HINTS = "hints"
+    GOAL = "goal"
+
+
+@dataclass(frozen=True)
+class Example:
+    """One prompt and the reply the model learns for it."""
+
+    kind: ExampleKind
+    goal: str
+    prompt: str
+    reply: str
+
+    def to_dict(self) -> dict[str, str]:
+        return {"kind": self.kind.value, "goal": self.goal, "prompt": self.prompt, "reply": self.reply}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, str]) -> Example:
+        return cls(ExampleKind(data["kind"]), data["goal"], data["prompt"], data["reply"])
+
+
+@dataclass(frozen=True)
+class ExampleSet:
+    """The examples trained on, and the ones held back to measure the model."""
+
+    train: tuple[Example, ...]
+    held_out: tuple[Example, ...]
+    #: Sampled goals left out because an evaluation set holds them.
+    dropped: int = 0
+
+
+def goal_key(goal: str) -> GoalKey:
+    """The key of a goal text (see :data:`GoalKey`)."""
+    return frozenset(frozenset(atom.underscored for atom in term) for term in parse_goal(goal))
+
+
+def evaluation_goals(scenario: str) -> frozenset[GoalKey]:
+    """The goals of every evaluation set of ``scenario``: its Table I and Table II test sets (every
+    shipped dataset of the scenario but the few-shot pools) and its instruction dataset."""
+    keys: set[GoalKey] = set()
+    for name in dataset_names():
+        if DATASET_SCENARIO.get(name) == scenario and not name.startswith("fewshot_"):
+            keys.update(goal_key(record.goal) for record in load_dataset(name))
+    if scenario in instruction_scenarios():
+        keys.update(goal_key(record.goal) for record in load_instructions(scenario))
+    return frozenset(keys)
+
+
+def check_disjoint(examples: Iterable[Example], held: frozenset[GoalKey], name: str) -> None:
+    """Refuse examples that hold one of the ``held`` goals (:class:`LeakError`)."""
+    leaked = sorted({example.goal for example in examples if goal_key(example.goal) in held})
+    if leaked:
+        shown = ", ".join(leaked[:3]) + (f" and {len(leaked) - 3} more" if len(leaked) > 3 else "")
+        raise LeakError(f"{len(leaked)} training goal(s) belong to an evaluation set of {name!r}: {shown}")
+
+
+def hints_example(record: Record) -> Example:
+    """A labelled goal as the prompt a taught model is asked and the reply it learns."""
+    return Example(ExampleKind.HINTS, record.goal, taught_prompt(record.goal), taught_reply(record))
+
+
+def held_goals(scenario: Scenario) -> frozenset[GoalKey]:
+    """The goals no example may have: the evaluation sets' (:func:`evaluation_goals`) and the
+    problem's own ``:goal`` (an IPC instance's task is an evaluation task too)."""
+    held = set(evaluation_goals(scenario.name))
+    with contextlib.suppress(InputError):  # no :goal (the shipped scenarios' problems)
+        held.add(goal_key(scenario.problem_goal()))
+    return frozenset(held)
+
+
+def sample_hints(scenario: Scenario, count: int, seed: int, max_expansions: int) -> tuple[list[Example], int]:
+    """About ``count`` hints examples of distinct goals over the levels of :data:`LEVEL_SHARES`, none
+    of an evaluation set; and how many sampled goals were left out for being one."""
+    held = held_goals(scenario)
+    seen: set[GoalKey] = set()
+    examples: list[Example] = []
+    dropped = 0
+    for offset, (level, share) in enumerate(LEVEL_SHARES):
+        sampling = Sampling(seed=seed * 1_000 + offset, max_expansions=max_expansions)
+        wanted = max(1, round(count * share))
+        for record in generate_records(scenario.task, LEVELS[level], wanted, sampling, scenario.mutexes):
+            key = goal_key(record.goal)
+            if key in held:
+                dropped += 1
+            elif key not in seen:
+                seen.add(key)
+                examples.append(hints_example(record))
+    return examples, dropped
+
+
+def split(examples: Sequence[Example], held_out: float, seed: int) -> tuple[tuple[Example, ...], tuple[Example, ...]]:
+    """Shuffle ``examples`` (seeded) and hold back the share ``held_out`` of them."""
+    if not 0 <= held_out < 1:
+        raise InputError(f"the held-out share must be at least 0 and below 1, not {held_out}")
+    order = list(examples)
+    random.Random(seed).shuffle(order)
+    kept = round(len(order) * held_out)
+    return tuple(order[kept:]), tuple(order[:kept])
+
+
+def make_examples(
+    scenario: Scenario, count: int, *, seed: int = 0, held_out: float = 0.1, max_expansions: int = 20_000
+) -> ExampleSet:
+    """The examples of ``scenario`` (see the module docstring), checked disjoint from its evaluation
+    sets; :class:`InputError` when the world is too small to sample from."""
+    examples, dropped = sample_hints(scenario, count, seed, max_expansions)
+    if len(examples) < 2:
+        raise InputError(
+            f"{scenario.name}: only {len(examples)} distinct goal(s) could be sampled; the world is too small to "
+            "teach a model (it needs actions that change the state from s0)"
+        )
+    check_disjoint(examples, held_goals(scenario), scenario.name)
+    train, held = split(examples, held_out, seed)
+    return ExampleSet(train, held, dropped)
+
+
+__all__ = [
+    "LEVEL_SHARES",
+    "Example",
+    "ExampleKind",
+    "ExampleSet",
+    "GoalKey",
+    "LeakError",
+    "check_disjoint",
+    "evaluation_goals",
+    "goal_key",
+    "held_goals",
+    "hints_example",
+    "make_examples",
+    "sample_hints",
+    "split",
+]

@@ -1,0 +1,221 @@
+"""Teaching the local model (hbtp train): the examples are the planner's optimal labels and never
+an evaluation set's goals; adapters are chosen, checked and refused as the docs say; and (in CI's
+second stage, with the train extra) a tiny training run writes an adapter that xllamacpp applies
+and whose answers agree with the merged torch model."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import logging
+import struct
+from pathlib import Path
+
+import pytest
+
+from hbtp.domains import Scenario
+from hbtp.llm.backends.adapters import (
+    KEY_BASE,
+    KEY_WORLD,
+    AdapterChoice,
+    AdapterMode,
+    choose_adapter,
+    read_metadata,
+    unfit,
+    world_key,
+)
+from hbtp.llm.prompt import taught_prompt
+from hbtp.planning import plan
+from hbtp.train.examples import (
+    ExampleKind,
+    LeakError,
+    check_disjoint,
+    evaluation_goals,
+    goal_key,
+    held_goals,
+    hints_example,
+    make_examples,
+)
+
+HAVE_TRAIN = all(importlib.util.find_spec(name) for name in ("torch", "transformers", "peft", "gguf"))
+HAVE_XLLAMACPP = importlib.util.find_spec("xllamacpp") is not None
+
+
+# ----------------------------------------------------------------------------- the examples
+@pytest.fixture(scope="module")
+def robowaiter_examples(robowaiter: Scenario) -> object:
+    return make_examples(robowaiter, 40, seed=3, held_out=0.25)
+
+
+def test_examples_are_optimal_labels_in_the_short_prompt(robowaiter: Scenario, robowaiter_examples: object) -> None:
+    examples = robowaiter_examples
+    every = [*examples.train, *examples.held_out]  # type: ignore[attr-defined]
+    assert len(every) >= 20
+    assert len(examples.held_out) == round(len(every) * 0.25)  # type: ignore[attr-defined]
+    task = robowaiter.task
+    for example in every:
+        assert example.kind is ExampleKind.HINTS
+        assert example.prompt == taught_prompt(example.goal)
+        assert example.reply.startswith(" ")
+        assert example.reply.endswith("\n\n")
+        # the label's plan reaches the goal, and no plan is cheaper (an independent optimal search)
+        actions = [task.action(name) for name in example.reply.split("\n")[0].strip().split(", ") if name]
+        state = task.initial_state
+        for action in actions:
+            assert action.applicable(state)
+            state = action.progress(state)
+        goal = task.resolve_goal(example.goal)
+        assert goal.holds(state)
+        best = plan(task, goal, "obtea", heuristic="none", mutexes=robowaiter.mutexes.proved_only())
+        assert sum(a.cost for a in actions) == best.cost
+
+
+def test_examples_are_deterministic_for_a_seed(robowaiter: Scenario) -> None:
+    first = make_examples(robowaiter, 20, seed=5)
+    assert make_examples(robowaiter, 20, seed=5) == first
+    assert make_examples(robowaiter, 20, seed=6) != first
+
+
+@pytest.mark.parametrize("name", ["robowaiter", "virtualhome", "robothow-small", "robothow"])
+def test_no_evaluation_goal_is_trained_on(name: str, request: pytest.FixtureRequest) -> None:
+    scenario = request.getfixturevalue(name.replace("-", "_"))
+    held = evaluation_goals(name)
+    assert len(held) >= 30  # the distinct goals of the Table II set, and of the instruction dataset
+    examples = make_examples(scenario, 30, seed=1)
+    assert not {goal_key(e.goal) for e in (*examples.train, *examples.held_out)} & held
+
+
+def test_a_leak_is_refused(robowaiter: Scenario, robowaiter_examples: object) -> None:
+    from hbtp.datasets import load_dataset
+
+    leaked = load_dataset("table2_robowaiter_50")[0]
+    examples = [*robowaiter_examples.train, hints_example(leaked)]  # type: ignore[attr-defined]
+    with pytest.raises(LeakError, match=r"1 training goal\(s\) belong to an evaluation set of 'robowaiter'"):
+        check_disjoint(examples, held_goals(robowaiter), robowaiter.name)
+
+
+def test_a_pddl_problems_own_goal_is_held_back(tmp_path: Path) -> None:
+    from hbtp.domains import load_pddl_scenario
+
+    folder = Path(__file__).resolve().parents[2] / "shared" / "benchmarks" / "ipc" / "gripper"
+    if not folder.is_dir():
+        pytest.skip("no IPC benchmarks beside the repository")
+    scenario = load_pddl_scenario(folder / "domain.pddl", folder / "prob01.pddl")
+    assert goal_key(scenario.problem_goal()) in held_goals(scenario)
+
+
+def test_a_world_too_small_to_sample_is_refused(tmp_path: Path) -> None:
+    from hbtp.domains import load_pddl_scenario
+    from hbtp.errors import InputError
+
+    (tmp_path / "d.pddl").write_text(
+        "(define (domain d) (:predicates (p) (q)) (:action a :parameters () :precondition (q) :effect (p)))"
+    )
+    (tmp_path / "p.pddl").write_text("(define (problem p) (:domain d) (:init (p)) (:goal (p)))")
+    scenario = load_pddl_scenario(tmp_path / "d.pddl", tmp_path / "p.pddl")
+    with pytest.raises(InputError, match="too small"):
+        make_examples(scenario, 20)
+
+
+# ----------------------------------------------------------------------------- choosing adapters
+def _gguf(path: Path, fields: dict[str, str | float], tensors: dict[str, tuple[int, int]] | None = None) -> Path:
+    """A GGUF file with ``fields`` as metadata and F32 ``tensors`` of the given ggml shapes (zeros)."""
+    tensors = tensors or {}
+    data = b"GGUF" + struct.pack("<IQQ", 3, len(tensors), len(fields))
+    for key, value in fields.items():
+        data += struct.pack("<Q", len(key)) + key.encode()
+        if isinstance(value, float):
+            data += struct.pack("<I", 6) + struct.pack("<f", value)
+        else:
+            data += struct.pack("<I", 8) + struct.pack("<Q", len(value)) + value.encode()
+    offset = 0
+    for name, shape in tensors.items():
+        data += struct.pack("<Q", len(name)) + name.encode() + struct.pack("<I", 2) + struct.pack("<QQ", *shape)
+        data += struct.pack("<IQ", 0, offset)  # F32, at this offset of the data
+        offset += -(-shape[0] * shape[1] * 4 // 32) * 32
+    data += b"\0" * (-len(data) % 32) + b"\0" * offset
+    path.write_bytes(data)
+    return path
+
+
+ADAPTER = {"general.architecture": "gemma3", "general.type": "adapter", "adapter.type": "lora"}
+
+
+def test_adapter_metadata_is_read_and_checked(tmp_path: Path) -> None:
+    good = _gguf(tmp_path / "good.gguf", {**ADAPTER, "adapter.lora.alpha": 16.0, KEY_BASE: "abc", KEY_WORLD: "w1"})
+    assert read_metadata(good)[KEY_WORLD] == "w1"
+    assert unfit(good, world="w1", base_sha256="abc") is None
+    assert "another world" in (unfit(good, world="w2", base_sha256="abc") or "")
+    assert "another base model" in (unfit(good, world="w1", base_sha256="xyz") or "")
+    model = _gguf(tmp_path / "model.gguf", {"general.architecture": "gemma3", "general.type": "model"})
+    assert unfit(model, world=None, base_sha256=None) == "it is not a LoRA adapter"
+    (tmp_path / "junk.gguf").write_bytes(b"GGUF\x03\x00")
+    assert "cannot be read" in (unfit(tmp_path / "junk.gguf", world=None, base_sha256=None) or "")
+    (tmp_path / "text.gguf").write_text("hello")
+    assert "not a GGUF file" in (unfit(tmp_path / "text.gguf", world=None, base_sha256=None) or "")
+
+
+def test_an_unfit_adapter_is_left_out_with_one_warning(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    other = _gguf(tmp_path / "other.gguf", {**ADAPTER, KEY_WORLD: "another"})
+    choice = AdapterChoice(AdapterMode.FILE, other)
+    with caplog.at_level(logging.WARNING):
+        assert choose_adapter(choice, scenario="robowaiter", world="mine", base_sha256=None) is None
+    assert len(caplog.records) == 1
+    assert "made for another world" in caplog.text
+    assert choose_adapter(AdapterChoice.parse("none"), scenario="robowaiter", world="mine", base_sha256=None) is None
+    assert AdapterChoice.parse("./none").path == Path("none")
+
+
+def test_auto_takes_the_cached_adapter_of_a_pddl_world(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("HBTP_CACHE_DIR", str(tmp_path / "cache"))
+    domain, problem = tmp_path / "d.pddl", tmp_path / "p.pddl"
+    domain.write_text("(define (domain d))")
+    problem.write_text("(define (problem p))")
+    key = world_key(domain, problem)
+    folder = tmp_path / "cache" / "adapters"
+    folder.mkdir(parents=True)
+    cached = _gguf(folder / f"{key}.gguf", {**ADAPTER, KEY_WORLD: key})
+    assert choose_adapter(AdapterChoice(), scenario="p", world=key, base_sha256=None) == cached
+    assert choose_adapter(AdapterChoice(), scenario="p", world="other", base_sha256=None) is None
+
+
+@pytest.mark.skipif(not HAVE_XLLAMACPP, reason="xllamacpp is not installed (the local extra)")
+def test_a_corrupt_adapter_falls_back_to_the_base_model(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    from hbtp.llm.backend import Request
+    from hbtp.llm.backends.local import LocalBackend
+
+    # Metadata that passes the checks, tensors that do not fit the model: llama.cpp refuses them.
+    shapes = {"blk.0.attn_q.weight.lora_a": (7, 3), "blk.0.attn_q.weight.lora_b": (3, 5)}
+    broken = _gguf(tmp_path / "broken.gguf", {**ADAPTER, "adapter.lora.alpha": 16.0}, shapes)
+    backend = LocalBackend(adapter=broken, threads=1)
+    with caplog.at_level(logging.WARNING):
+        reply = backend.complete(Request((), "Goals: On_Coffee_Table1\nOptimal Actions:", max_tokens=4))
+    backend.close()
+    assert not backend.taught
+    assert "refused the adapter" in caplog.text
+    assert isinstance(reply.text, str)
+
+
+# ----------------------------------------------------------------------------- a tiny training run
+@pytest.mark.extras
+@pytest.mark.skipif(not (HAVE_TRAIN and HAVE_XLLAMACPP), reason="needs the train and local extras")
+def test_a_tiny_training_run_writes_an_adapter_xllamacpp_applies(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from hbtp.cli import main
+
+    out = tmp_path / "rw.gguf"
+    argv = ["train", "-s", "robowaiter", "-n", "10", "--held-out", "0.2", "--epochs", "3", "--batch", "4",
+            "--learning-rate", "0.003", "-o", str(out), "--work", str(tmp_path / "work"), "--json"]  # fmt: skip
+    assert main(argv) == 0, capsys.readouterr().err
+    outcome = json.loads(capsys.readouterr().out)
+    assert outcome["last_loss"] < outcome["first_loss"]
+    assert outcome["held_out"]["examples"] == 2
+    fields = read_metadata(out)
+    assert fields["general.type"] == "adapter"
+    assert fields["hbtp.scenario"] == "robowaiter"
+    assert unfit(out, world=fields[KEY_WORLD], base_sha256=fields[KEY_BASE] or None) is None
+    # the same command again: every step is in the checkpoint, the same adapter comes out
+    first = out.read_bytes()
+    assert main([*argv[:-1]]) == 0
+    assert out.read_bytes() == first
