@@ -46,6 +46,22 @@ def test_the_grammar_is_small_composed_and_bounded(robothow: Scenario) -> None:
     assert constraint.schema["properties"]["optimal_actions"]["maxItems"] == 5
 
 
+def test_a_taught_reply_is_constrained_to_the_plan_line(robothow_small: Scenario) -> None:
+    """A taught model owes the plan alone: its grammar has the action list and the end, no other line,
+    and a taught request carries that grammar."""
+    full = constraint_of(robothow_small.task).gbnf.splitlines()[0]
+    plan_only = constraint_of(robothow_small.task, path_only=True).gbnf.splitlines()[0]
+    assert "Vital" in full
+    assert not {"Vital", "predicate", "object"} & set(re.findall(r"\w+", plan_only))
+    assert plan_only.startswith('root ::= " " action (", " action)')
+    assert plan_only.endswith(" end")
+    taught = build_request(robothow_small.task, GOAL, [], PromptOptions(style=PromptStyle.COMPLETION, taught=True))
+    assert taught.taught
+    assert taught.completion_prompt == f"Goals: {GOAL}\nOptimal Actions:"
+    assert taught.constraint is not None
+    assert taught.constraint.gbnf.splitlines()[0] == plan_only
+
+
 def test_bounds_follow_the_demonstrations_shown() -> None:
     assert Bounds.after([(3, 2, 2), (6, 4, 1)]) == Bounds(6 + SLACK, 4 + SLACK, 2 + SLACK)
     assert Bounds.after([(40, 1, 1)]).actions == MAX_ACTIONS

@@ -207,6 +207,17 @@ def test_missing_sections(robothow_small: Scenario, text: str, missing: tuple[st
     assert set(SECTION_TITLES.values()) >= set(missing)
 
 
+def test_a_taught_reply_owes_the_plan_alone(robothow_small: Scenario) -> None:
+    from hbtp.llm.grammar import check_reply
+    from hbtp.llm.parse import parse_reply
+
+    plan_only = check_reply(parse_reply("Optimal Actions: Walk_fridge"), robothow_small.task, path_only=True)
+    assert plan_only.clean
+    assert plan_only.hints.path == ("Walk(fridge)",)
+    nothing = check_reply(parse_reply("Vital Objects: fridge"), robothow_small.task, path_only=True)
+    assert nothing.missing_sections == ("Optimal Actions",)
+
+
 # ---------------------------------------------------------------------------------- nothing unknown gets through
 def _noisy_name(rng: random.Random, name: str) -> str:
     """A name with a random edit: case, a dropped, doubled or swapped letter, a suffix, or nonsense."""

@@ -84,18 +84,25 @@ class Constraint:
 _NAME_RULES: TaskTable[tuple[str, str]] = TaskTable("the grammar rules of the names")
 
 
-def constraint_of(source: GroundTask | ActionNames, bounds: Bounds = Bounds()) -> Constraint:
+def constraint_of(
+    source: GroundTask | ActionNames, bounds: Bounds = Bounds(), *, path_only: bool = False
+) -> Constraint:
     """The constraint of the replies for a task (or its action names) with lists of at most ``bounds`` items.
 
+    ``path_only``: the reply is the first line alone (a taught model's, :func:`hbtp.llm.prompt.taught_reply`).
     The rules of the names are built once per task (kept with its names); only the first line,
     which holds the bounds, changes from request to request."""
     task = as_names(source)
     rules, action_pattern = _NAME_RULES.of(task, lambda: _names(task))
     predicates, objects = task.action_predicates, task.symbols
+    lists = f'" " {_bounded("action", bounds.actions)}'
+    if not path_only:
+        lists += (
+            f' "\\n{PREDICATES}: " {_bounded("predicate", _at_most(bounds.predicates, predicates))}'
+            f' "\\n{OBJECTS}: " {_bounded("object", _at_most(bounds.objects, objects))}'
+        )
     root = (
-        f'root ::= " " {_bounded("action", bounds.actions)} '
-        f'"\\n{PREDICATES}: " {_bounded("predicate", _at_most(bounds.predicates, predicates))} '
-        f'"\\n{OBJECTS}: " {_bounded("object", _at_most(bounds.objects, objects))} end\n'
+        f"root ::= {lists} end\n"
         # The reply may end the way a demonstration does (a blank line): a base model that wants to
         # stop after the last object is not made to go on listing objects up to the bound.
         'end ::= ( "\\n" "\\n"? )?\n'

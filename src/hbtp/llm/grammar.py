@@ -104,8 +104,10 @@ def _match_action(name: str, predicates: _Matcher, objects: _Matcher, action_nam
     return candidate if candidate.underscored in action_names else None
 
 
-def check_reply(parsed: ParsedReply, task: GroundTask | ActionNames) -> GrammarCheck:
+def check_reply(parsed: ParsedReply, task: GroundTask | ActionNames, *, path_only: bool = False) -> GrammarCheck:
     """Check every name of a parsed reply against a task (or its action names).
+
+    ``path_only``: the reply owes the path alone (a taught model's); the other lines are not missing.
 
     An action name is repaired part by part: its predicate and each object must match on their own
     (exactly, up to case, or as an unambiguous close match) and together name a grounded action, so
@@ -137,6 +139,7 @@ def check_reply(parsed: ParsedReply, task: GroundTask | ActionNames) -> GrammarC
         path.append(str(action))
     kept_predicates = [p for p in (resolve(predicates, n) for n in parsed.hints.predicates) if p]
     kept_objects = [o for o in (resolve(objects, n) for n in parsed.hints.objects) if o]
-    missing = tuple(title for section, title in TITLES.items() if section not in parsed.found)
+    owed = ("path",) if path_only else tuple(TITLES)
+    missing = tuple(TITLES[section] for section in owed if section not in parsed.found)
     hints = Hints(tuple(path), tuple(dict.fromkeys(kept_predicates)), tuple(dict.fromkeys(kept_objects)))
     return GrammarCheck(hints, tuple(repairs), tuple(dict.fromkeys(unknown)), missing)

@@ -172,9 +172,13 @@ def taught_prompt(goal: str) -> str:
 
 
 def taught_reply(record: Record) -> str:
-    """What a taught model learns to answer :func:`taught_prompt` with: the record's three lines,
-    then the blank line that ends a reply (a stop string)."""
-    return record.reply_block().removeprefix("Optimal Actions:") + "\n\n"
+    """What a taught model learns to answer :func:`taught_prompt` with: the record's plan, then the
+    blank line that ends a reply (a stop string).
+
+    The plan alone: the vital predicates and objects of an optimal label are the plan's own
+    (Q̂ = Q(p̂), Ô = O(p̂)), which the pruning adds to any reply anyway, so a taught model does not
+    spend tokens on them."""
+    return " " + ", ".join(record.optimal_actions) + "\n\n"
 
 
 def build_request(
@@ -222,7 +226,7 @@ def _constraint(
     if not options.constrain:
         return None
     lengths = [(len(r.optimal_actions), len(r.vital_predicates), len(r.vital_objects)) for r in examples]
-    return constraint_of(task, Bounds.after(lengths))
+    return constraint_of(task, Bounds.after(lengths), path_only=options.taught)
 
 
 def _max_tokens(options: PromptOptions, constraint: Constraint | None) -> int:

@@ -148,7 +148,7 @@ class _Asker:
                 break
             self.answered.add(request.sent_key(self.backend.prompt_style))
             replies.append(reply.text)
-            check = self.check(reply.text)
+            check = self.check(reply.text, path_only=request.taught)
             calls.append(call_record(request, reply, check))
             self.progress(_call_summary(calls[-1]))
             if check.clean or not check.problems or attempt == self.retries:
@@ -161,12 +161,12 @@ class _Asker:
         """Whether the backend already answered, greedily, what it would now be sent."""
         return request.temperature <= 0 and request.sent_key(self.backend.prompt_style) in self.answered
 
-    def check(self, text: str) -> GrammarCheck:
-        """The grammar check of a reply; its unknown names join the blacklist."""
+    def check(self, text: str, path_only: bool = False) -> GrammarCheck:
+        """The grammar check of a reply (of a taught model: ``path_only``); its unknown names join the blacklist."""
         parsed = parse_reply(text)
         if "path" not in parsed.found:  # a base model continues after "Optimal Actions:"
             parsed = parse_reply("Optimal Actions:" + text)
-        check = check_reply(parsed, self.names)
+        check = check_reply(parsed, self.names, path_only=path_only)
         self.blacklist.extend(n for n in check.unknown if n not in self.blacklist)
         return check
 

@@ -28,7 +28,9 @@ from hbtp.llm.backends.local import LocalBackend
 from hbtp.llm.parse import parse_reply
 from hbtp.llm.prompt import PromptOptions, build_request
 from hbtp.llm.vocabulary import as_names
+from hbtp.logic.names import ActionNames
 from hbtp.planning import Limits, plan
+from hbtp.planning.hints import Hints
 from hbtp.planning.planners import Space
 from hbtp.train.examples import Example
 
@@ -53,10 +55,9 @@ class HeldOutScore:
         return asdict(self)
 
 
-def _label(example: Example) -> tuple[tuple[str, ...], frozenset[str], frozenset[str]]:
-    parsed = parse_reply("Optimal Actions:" + example.reply)
-    hints = parsed.hints
-    return tuple(hints.path), frozenset(hints.predicates), frozenset(hints.objects)
+def _answer(names: ActionNames, reply: str) -> Hints:
+    """The hints of a taught reply (the plan) with the plan's predicates and objects (Q(p̂), O(p̂))."""
+    return Hints().grown_by(parse_reply("Optimal Actions:" + reply).hints, names)
 
 
 def evaluate(scenario: Scenario, adapter: Path | None, examples: Sequence[Example], threads: int = 2) -> HeldOutScore:
@@ -71,10 +72,9 @@ def evaluate(scenario: Scenario, adapter: Path | None, examples: Sequence[Exampl
             request = build_request(names, example.goal, [], options)
             reply = backend.complete(request)
             seconds.append(reply.seconds)
-            hints = parse_reply("Optimal Actions:" + reply.text).hints
-            path, predicates, objects = _label(example)
-            exact += tuple(hints.path) == path
-            covered += predicates <= set(hints.predicates) and objects <= set(hints.objects)
+            hints, label = _answer(names, reply.text), _answer(names, example.reply)
+            exact += hints.path == label.path
+            covered += set(label.predicates) <= set(hints.predicates) and set(label.objects) <= set(hints.objects)
             result = plan(
                 scenario.task, example.goal, "hbtp-s", hints=hints, space=Space.PRUNED, heuristic="none",
                 mutexes=scenario.mutexes, limits=Limits(time_s=ROUND_SECONDS),

@@ -33,7 +33,7 @@ KEY_WORLD = "hbtp.world"
 KEY_FORMAT = "hbtp.prompt_format"
 #: The prompt format adapters are trained on (:func:`hbtp.llm.prompt.taught_prompt`); an adapter of
 #: another format would be asked questions it was never taught.
-PROMPT_FORMAT = 1
+PROMPT_FORMAT = 2
 #: The most metadata entries read from an adapter (a real one has about a dozen).
 _MAX_FIELDS = 4096
 _MAX_STRING = 1 << 20
