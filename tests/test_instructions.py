@@ -167,10 +167,15 @@ def test_a_model_that_keeps_proposing_impossible_goals_gives_up_with_the_reasons
     assert "no goal in the reply" in garbage.message
 
 
-def test_an_already_true_goal_is_taken_only_when_nothing_better_comes(virtualhome: Scenario) -> None:
-    choice = goal_from_instruction(virtualhome, "make sure the fridge is closed", Scripted(["IsClose_fridge"]))
-    assert choice.goal == "IsClose_fridge"
-    assert len(choice.attempts) == 4  # asked again three times, then the doubtful goal is taken
+def test_an_already_true_goal_is_refused_not_used(virtualhome: Scenario) -> None:
+    backend = Scripted(["IsClose_fridge", "IsOpen_fridge"])
+    choice = goal_from_instruction(virtualhome, "make sure the fridge is closed", backend)
+    assert choice.goal is None
+    assert choice.holding == "IsClose_fridge"
+    assert len(backend.requests) == 1  # the asking ends: a goal asked for again would drift from the meaning
+    assert choice.message == (
+        "the instruction asks for IsClose_fridge, which already holds at the start: there is nothing to do"
+    )
 
 
 def test_empty_and_unrelated_instructions_are_refused_before_asking(virtualhome: Scenario) -> None:
@@ -357,3 +362,33 @@ def test_one_model_load_serves_the_instruction_and_the_hints_and_t_bounds_it(
     assert code == 1
     assert err.startswith("hbtp: error: time limit of 0.5 s reached while")
     assert err.count("\n") == 1
+
+
+# --------------------------------------------------------------------------------- a taught model
+class Taught(Scripted):
+    """A scripted model that was taught the world: it is asked the instruction alone."""
+
+    taught = True
+
+
+def test_a_taught_model_is_asked_the_instruction_alone_with_every_literal_offered(virtualhome: Scenario) -> None:
+    backend = Taught(["IsIn_milk_fridge & IsClose_fridge"])
+    text = "Store the carton of milk in the refrigerator and shut it."
+    choice = goal_from_instruction(virtualhome, text, backend, instruction_pool(virtualhome))
+    assert choice.goal == "IsIn_milk_fridge & IsClose_fridge"
+    request = backend.requests[0]
+    assert request.taught
+    assert request.completion_prompt == f"Instruction: {text}\nGoals:"
+    assert request.constraint is not None
+    grammar = request.constraint.gbnf
+    assert '"Unknown: "' in grammar  # a refusal is allowed
+    assert '" | " term' in grammar  # so are alternatives and negations, whatever the words
+    assert "natom" in grammar
+
+
+def test_a_taught_refusal_is_the_error(virtualhome: Scenario) -> None:
+    backend = Taught(["Unknown: piano"])
+    choice = goal_from_instruction(virtualhome, "put the piano in the fridge", backend)
+    assert choice.goal is None
+    assert choice.message == "the instruction names piano, which 'virtualhome' does not have"
+    assert len(backend.requests) == 1

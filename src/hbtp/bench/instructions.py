@@ -7,6 +7,8 @@ with the demonstrations drawn from the *other* records of the scenario (leave on
 the record's phrasings is shown). A row records:
 
 - ``exact``: the produced goal has the same disjuncts as the intended one (each a set of literals);
+  an instruction whose intended goal already holds at the start is exact when it is refused for
+  that goal (there is nothing to do);
 - ``equivalent``: the same after replacing ``~p`` by ``q`` where the proved mutexes make exactly one
   of ``p`` and ``q`` hold in every reachable state (``~IsOpen_fridge`` and ``IsClose_fridge``);
 - ``well_formed``, ``rejected``: a goal was produced (every proposal refused: ``rejected``, with the
@@ -118,12 +120,19 @@ def run_row(
     row.update(produced=choice.goal, rounds=len(choice.attempts), llm_s=round(choice.llm_seconds, 6))
     row.update(well_formed=choice.goal is not None, rejected=choice.goal is None, message=choice.message)
     if choice.goal is None:
-        return {**row, "exact": False, "equivalent": False, "reached": False}
+        # Refusing a goal that already holds is the right answer when that goal is the intended one.
+        right = choice.holding is not None and _same(scenario, parse_goal(choice.holding), intended, False)
+        same = choice.holding is not None and _same(scenario, parse_goal(choice.holding), intended, True)
+        return {**row, "exact": right, "equivalent": same, "reached": right}
     produced = parse_goal(choice.goal)
     row["exact"] = normal_form(scenario, produced, False) == normal_form(scenario, intended, False)
     row["equivalent"] = normal_form(scenario, produced, True) == normal_form(scenario, intended, True)
     row["reached"] = _reached(scenario, choice.goal, intended, bench.plan_time_limit)
     return row
+
+
+def _same(scenario: Scenario, left: Sequence[Sequence[Atom]], right: Sequence[Sequence[Atom]], mutexes: bool) -> bool:
+    return normal_form(scenario, left, mutexes) == normal_form(scenario, right, mutexes)
 
 
 def _reached(scenario: Scenario, produced: str, intended: Sequence[Sequence[Atom]], seconds: float) -> bool:

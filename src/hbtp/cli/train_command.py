@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shlex
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -76,6 +77,12 @@ settings_options = option_group(
     help="Seconds of training at most; the same command then goes on from the checkpoint.",
 )
 @click.option("--no-eval", is_flag=True, help="Do not judge the model on the held-back goals.")
+@click.option(
+    "--instructions/--no-instructions",
+    default=True,
+    show_default=True,
+    help="Teach instructions -> goals too (goals said in words by the verbaliser), beside goals -> hints.",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print the outcome as JSON.")
 def train_command(
     source: ScenarioSource,
@@ -86,6 +93,7 @@ def train_command(
     work: str | None,
     time_limit: float | None,
     no_eval: bool,
+    instructions: bool,
     as_json: bool,
 ) -> int:
     """Teach the local model (Gemma-3 270M) a scenario or your PDDL world: goals sampled and labelled
@@ -100,7 +108,7 @@ def train_command(
     where: dict[str, object] = {"scenario": source.scenario} if source.scenario else {"pddl": list(source.pddl or ())}
     request = TrainRequest(
         loaded, where, count, held_out, settings, Path(out_file) if out_file else None,
-        Path(work) if work else None, time_limit, not no_eval,
+        Path(work) if work else None, time_limit, not no_eval, instructions, _command_line(),
     )  # fmt: skip
     outcome = run_training(request, cache_folder().parent / "train", None if as_json else _progress)
     if as_json:
@@ -108,6 +116,11 @@ def train_command(
     else:
         _show(outcome)
     return 0
+
+
+def _command_line() -> str:
+    """The command as typed (kept in the report beside the adapter), the program's folder left out."""
+    return " ".join(["hbtp", *(shlex.quote(arg) for arg in sys.argv[1:])])
 
 
 def _show(outcome: TrainOutcome) -> None:
@@ -123,6 +136,11 @@ def _show(outcome: TrainOutcome) -> None:
             f"held back {score.examples} goals: NF {score.nf:.0%}, exact plan {score.exact:.0%}, "
             f"predicates and objects covered {score.covered:.0%}, median {score.median_seconds:.2f} s per answer"
         )
+        if score.instructions:
+            click.echo(
+                f"held back {score.instructions} instructions: goal exact {score.instruction_exact:.0%} "
+                f"(refusals among them: {score.refusals}, refused {score.refused:.0%})"
+            )
 
 
 __all__ = ["train_command"]

@@ -5,6 +5,11 @@ The prompt is few-shot in both shapes (:mod:`hbtp.llm.backend`): demonstrations 
 words), then the instruction, ending in ``Goals:``. Feedback rounds add the goals already rejected,
 each with its reason (LLM-OBTEA's blacklist), and sample at a higher temperature.
 
+A model taught the world (:mod:`hbtp.train`) is asked the instruction alone
+(:func:`taught_goal_prompt`), with every fluent literal and connective offered, and may refuse: an
+instruction that names something the world lacks is answered ``Unknown: <what>``
+(:func:`refusal_of`).
+
 Constrained decoding: the reply is one goal in the infix syntax of :mod:`hbtp.logic.goals` made of
 literals of the task (a GBNF grammar for llama.cpp; a JSON schema ``{"goal": ...}`` for
 OpenAI-compatible servers). The literals offered are those whose objects the instruction names
@@ -39,6 +44,35 @@ SYNTAX = (
 )
 
 _WORD = re.compile(r"[a-z0-9]+")
+
+#: How a taught model begins a refusal: ``Unknown: <what the instruction names and the world lacks>``.
+UNKNOWN = "Unknown:"
+#: What may follow :data:`UNKNOWN` (a noun phrase of lower-case words).
+_REFUSAL_GBNF = '"Unknown: " [a-z0-9] [a-z0-9 \'-]{0,39}'
+_REFUSAL_REGEX = "Unknown: [a-z0-9][a-z0-9 '-]{0,39}"
+
+
+def taught_goal_prompt(instruction: str) -> str:
+    """The completion prompt a taught model is asked for the goal of ``instruction``, and trained on."""
+    return f"Instruction: {' '.join(instruction.split())}\nGoals:"
+
+
+def taught_goal_reply(goal: str) -> str:
+    """What a taught model learns to answer :func:`taught_goal_prompt` with: the goal, then a blank line."""
+    return f" {goal.strip()}\n\n"
+
+
+def refusal_reply(what: str) -> str:
+    """The taught answer to an instruction that names ``what``, which the world lacks."""
+    return f" {UNKNOWN} {what}\n\n"
+
+
+def refusal_of(reply: str) -> str | None:
+    """What a refusal (:func:`refusal_reply`) says the world lacks; ``None`` when ``reply`` is not one."""
+    text = reply.strip()
+    if not text.startswith(UNKNOWN):
+        return None
+    return text.removeprefix(UNKNOWN).strip() or "something"
 
 
 @dataclass(frozen=True)
@@ -252,9 +286,12 @@ def goal_constraint(
     categories: dict[str, tuple[str, ...]],
     connectives: Connectives = Connectives(),
     not_negated: Iterable[Atom] = (),
+    *,
+    refusal: bool = False,
 ) -> Constraint:
     """The grammar and schema of a goal over ``atoms`` with the ``connectives`` allowed; the atoms
-    of ``not_negated`` are never offered with ``~`` (a rejected contradiction)."""
+    of ``not_negated`` are never offered with ``~`` (a rejected contradiction); with ``refusal``,
+    a refusal (:func:`refusal_reply`) instead of a goal."""
     rules = NameRules(categories)
     atom_rule, atom = _atom_rule(atoms, rules)
     kept = set(not_negated)
@@ -269,9 +306,10 @@ def goal_constraint(
     term_rule = (
         f'term ::= (atom " & "){{0,{longest}}} "~" natom' if ending else f'term ::= lit (" & " lit){{0,{longest}}}'
     )
+    body = f"( term {more_terms}| {_REFUSAL_GBNF} ) " if refusal else f"term {more_terms}"
     lines = [
         # The goal may end the way a demonstration does (a blank line: one token in Gemma's vocabulary).
-        f'root ::= " " term {more_terms}( "\\n" "\\n"? )?',
+        f'root ::= " " {body}( "\\n" "\\n"? )?',
         term_rule,
         'lit ::= atom | "~" natom' if negation else "lit ::= atom",
         f"atom ::= {atom_rule}",
@@ -282,9 +320,10 @@ def goal_constraint(
     repeat = "*" if connectives.conjunctions else "{0}"
     term = f"(?:{atom} & ){repeat}~{natom}" if ending else f"{literal}(?: & {literal}){repeat}"
     more = f"(?: \\| {term}){'+' if least else '*'}" if alternatives else ""
+    pattern = f"(?:{term}{more}|{_REFUSAL_REGEX})" if refusal else f"{term}{more}"
     schema = {
         "type": "object",
-        "properties": {"goal": {"type": "string", "pattern": f"^{term}{more}$"}},
+        "properties": {"goal": {"type": "string", "pattern": f"^{pattern}$"}},
         "required": ["goal"],
         "additionalProperties": False,
     }
@@ -300,8 +339,12 @@ def goal_request(
     constrain: bool = True,
     round_number: int = 0,
     seed: int = 0,
+    taught: bool = False,
 ) -> Request:
-    """The request asking for the goal of ``instruction`` (see the module docstring)."""
+    """The request asking for the goal of ``instruction`` (see the module docstring); ``taught``:
+    of a model taught the world (the instruction alone, every literal offered, a refusal allowed)."""
+    if taught:
+        return _taught_goal_request(task, instruction, rejected, constrain, round_number, seed)
     shots = "".join(f"Instruction: {e.instruction}\nGoals: {e.goal}\n\n" for e in examples)
     refused = "".join(f"Not: {r.goal} ({r.reason})\n" for r in rejected)
     completion = f"{SYNTAX}\n\n{shots}Instruction: {instruction.strip()}\n{refused}Goals:"
@@ -328,6 +371,33 @@ def goal_request(
         stop=("\n", "Instruction:"),
         constraint=constraint,
         instruction=instruction.strip(),
+    )
+
+
+def _taught_goal_request(
+    task: GroundTask, instruction: str, rejected: Sequence[Rejected], constrain: bool, round_number: int, seed: int
+) -> Request:
+    """The request of a taught model: its prompt is the instruction alone (the feedback of a
+    rejected answer is the grammar, without the literals that can never hold, and sampling)."""
+    banned = {a for r in rejected for a in r.never if not a.negated}
+    not_negated = [a.positive for r in rejected for a in r.never if a.negated]
+    offered = [a for a in _fluent_atoms(task) if a not in banned]
+    constraint = (
+        goal_constraint(offered, task.categories, Connectives(), not_negated, refusal=True) if constrain else None
+    )
+    text = " ".join(instruction.split())
+    return Request(
+        messages=(Message("system", SYNTAX + " Answer with the goal only."), Message("user", text)),
+        completion_prompt=taught_goal_prompt(text),
+        scenario=task.name,
+        round=round_number,
+        max_tokens=64,
+        temperature=0.0 if round_number == 0 else 0.7,
+        seed=seed + round_number,
+        stop=("\n", "Instruction:"),
+        constraint=constraint,
+        instruction=text,
+        taught=True,
     )
 
 
@@ -393,6 +463,7 @@ def goal_reply(text: str) -> str:
 
 
 __all__ = [
+    "UNKNOWN",
     "Example",
     "Rejected",
     "continuation_request",
@@ -404,5 +475,9 @@ __all__ = [
     "nearest_pairs",
     "object_positions",
     "offered_atoms",
+    "refusal_of",
+    "refusal_reply",
     "similar_examples",
+    "taught_goal_prompt",
+    "taught_goal_reply",
 ]

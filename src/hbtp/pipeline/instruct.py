@@ -8,9 +8,12 @@ before any planning:
   IsClose_fridge``), or literals no action can make true (these are left out of the next grammar);
 * *doubtful*: the goal already holds in s0 (the robot would do nothing).
 
-A refused or doubtful goal goes back to the model with the reason (the blacklist of LLM-OBTEA) for
-at most ``rounds`` more answers. The first goal with no objection is chosen; failing that, the first
-doubtful one; failing that, nothing, and the reasons are the error. A completion-style model's
+A refused goal goes back to the model with the reason (the blacklist of LLM-OBTEA) for at most
+``rounds`` more answers; the first goal with no objection is chosen; failing that, nothing, and the
+reasons are the error. A doubtful goal ends the asking and is refused: the instruction asks for
+what already holds (a goal asked for again would only drift from what was meant). A model taught
+the world may refuse itself: an instruction that names what the world lacks is answered with what
+it lacks (:func:`hbtp.llm.goal_prompt.refusal_of`), and that is the error. A completion-style model's
 accepted conjunction is then extended with a literal for each object the instruction names and the
 goal leaves out (asked as a continuation of its own goal; a literal that draws an objection is
 dropped). An instruction that names no object of the domain and shares no word with a known
@@ -25,6 +28,7 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Any
 
 from hbtp.datasets.instructions import load_instructions
@@ -42,6 +46,7 @@ from hbtp.llm.goal_prompt import (
     goal_request,
     mentioned_objects,
     named_atoms,
+    refusal_of,
     similar_examples,
 )
 from hbtp.logic.atoms import Atom
@@ -99,11 +104,14 @@ class GoalChoice:
     attempts: tuple[GoalAttempt, ...] = ()
     llm_seconds: float = 0.0
     message: str = ""
+    #: The goal the instruction asks for when it was refused for already holding at the start.
+    holding: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "instruction": self.instruction,
             "goal": self.goal,
+            "holding": self.holding,
             "rounds": len(self.attempts),
             "llm_s": round(self.llm_seconds, 6),
             "message": self.message,
@@ -170,10 +178,13 @@ def goal_from_instruction(
     if not text:
         raise InputError("empty instruction")
     task = scenario.task
-    examples = similar_examples(text, pool, options.examples)
-    if not _relevant(scenario, text, pool):
+    # A taught model needs no demonstrations, and judges itself what the world lacks.
+    taught = bool(getattr(backend, "taught", False))
+    examples = [] if taught else similar_examples(text, pool, options.examples)
+    if not taught and not _relevant(scenario, text, pool):
         raise InputError(f"the instruction {text[:80]!r} names no object of {scenario.name!r} and is like no known one")
     deadline = math.inf if options.time_limit is None else time.perf_counter() + options.time_limit
+    ask = partial(goal_request, task, text, examples, constrain=options.constrain, seed=options.seed, taught=taught)
     attempts: list[GoalAttempt] = []
     rejected: list[Rejected] = []
     spent = 0.0
@@ -181,10 +192,7 @@ def goal_from_instruction(
         left = deadline - time.perf_counter()
         if left <= 0:
             break
-        request = goal_request(
-            task, text, examples, rejected, constrain=options.constrain, round_number=number, seed=options.seed
-        )
-        request = _limited(request, left)
+        request = _limited(ask(rejected, round_number=number), left)
         try:
             reply = backend.complete(request)
         except BackendTimeLimit:
@@ -194,13 +202,19 @@ def goal_from_instruction(
             break
         spent += reply.seconds
         proposed = goal_reply(reply.text)
+        lacking = refusal_of(proposed) if taught else None
+        if lacking is not None:
+            attempts.append(GoalAttempt(number, reply.text, "", (f"names {lacking}",), False, reply.seconds))
+            message = f"the instruction names {lacking}, which {scenario.name!r} does not have"
+            return GoalChoice(text, None, tuple(attempts), spent, message)
         verdict = check_goal(scenario, proposed) if proposed else Verdict(("no goal in the reply",))
         attempts.append(GoalAttempt(number, reply.text, proposed, verdict.objections, verdict.doubtful, reply.seconds))
         log.info("instruction round %d: %r -> %s", number, proposed, "; ".join(verdict.objections) or "accepted")
-        if not verdict.objections:
+        if not verdict.objections or verdict.doubtful:
             break
         rejected.append(Rejected(proposed or reply.text.strip()[:80], "; ".join(verdict.objections), verdict.never))
-    if options.cover and backend.prompt_style is PromptStyle.COMPLETION and attempts and attempts[-1].accepted:
+    cover = options.cover and not taught and backend.prompt_style is PromptStyle.COMPLETION
+    if cover and attempts and attempts[-1].accepted:
         spent += _cover(scenario, text, backend, request, attempts, deadline)
     return _choose(text, attempts, spent)
 
@@ -258,11 +272,15 @@ def _relevant(scenario: Scenario, text: str, pool: Sequence[Example]) -> bool:
 
 def _choose(text: str, attempts: Sequence[GoalAttempt], spent: float) -> GoalChoice:
     accepted = [a for a in attempts if a.accepted]
-    doubtful = [a for a in attempts if a.doubtful]
-    if accepted or doubtful:
-        chosen = accepted[-1] if accepted else doubtful[0]  # the last accepted: the most complete
+    if accepted:
+        chosen = accepted[-1]  # the last accepted: the most complete
         goal = format_goal(parse_goal(chosen.goal))
         return GoalChoice(text, goal, tuple(attempts), spent)
+    doubtful = [a for a in attempts if a.doubtful]
+    if doubtful:
+        holding = format_goal(parse_goal(doubtful[0].goal))
+        message = f"the instruction asks for {holding}, which already holds at the start: there is nothing to do"
+        return GoalChoice(text, None, tuple(attempts), spent, message, holding)
     reasons = "; ".join(dict.fromkeys(o for a in attempts for o in a.objections)) or "the model gave no answer in time"
     return GoalChoice(
         text, None, tuple(attempts), spent, f"no acceptable goal after {len(attempts)} answer(s): {reasons}"

@@ -4,7 +4,8 @@ trained on them, written for llama.cpp, and judged on held-back goals.
 Needs the ``train`` extra (torch, transformers, peft, gguf); nothing else in hbtp imports this.
 """
 
-from hbtp.train.examples import Example, ExampleKind, ExampleSet, LeakError, make_examples
+from hbtp.train.example_set import ExampleSet, make_examples
+from hbtp.train.examples import Example, ExampleKind, LeakError
 from hbtp.train.lora import TrainingStopped, TrainReport, TrainSettings
 
 __all__ = [

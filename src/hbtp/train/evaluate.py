@@ -8,6 +8,9 @@ asks it (the short prompt, constrained decoding), and the answer is judged three
 * NF: the planner, searching only the space the answer names (HBTP-S, as a loop round does),
   finds a tree: the paper's "solved without feedback".
 
+Each held-back instruction is asked as ``plan -i`` asks it: its goal must be the label's (the same
+disjuncts of the same literals), and an instruction about what the world lacks must be refused.
+
 The model runs in a process of its own (:func:`evaluate_in_child`): torch, which trained it, and
 llama.cpp each bring an OpenMP runtime, and one process should hold one.
 """
@@ -23,8 +26,10 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from hbtp.domains import Scenario
+from hbtp.errors import InputError
 from hbtp.llm.backend import PromptStyle
 from hbtp.llm.backends.local import LocalBackend
+from hbtp.llm.goal_prompt import goal_reply, goal_request, refusal_of
 from hbtp.llm.parse import parse_reply
 from hbtp.llm.prompt import PromptOptions, build_request
 from hbtp.llm.vocabulary import as_names
@@ -32,7 +37,7 @@ from hbtp.logic.names import ActionNames
 from hbtp.planning import Limits, plan
 from hbtp.planning.hints import Hints
 from hbtp.planning.planners import Space
-from hbtp.train.examples import Example
+from hbtp.train.examples import Example, ExampleKind, goal_key
 
 log = logging.getLogger(__name__)
 
@@ -42,7 +47,8 @@ ROUND_SECONDS = 5.0
 
 @dataclass(frozen=True)
 class HeldOutScore:
-    """The share of held-back goals answered exactly, covered and solved without feedback (NF),
+    """The share of held-back goals answered exactly, covered and solved without feedback (NF);
+    of held-back instructions read as their goal exactly, and of the refusals among them refused;
     and the model's median seconds per answer."""
 
     examples: int
@@ -50,6 +56,10 @@ class HeldOutScore:
     covered: float
     nf: float
     median_seconds: float
+    instructions: int = 0
+    instruction_exact: float = 0.0
+    refusals: int = 0
+    refused: float = 0.0
 
     def to_dict(self) -> dict[str, float | int]:
         return asdict(self)
@@ -60,17 +70,26 @@ def _answer(names: ActionNames, reply: str) -> Hints:
     return Hints().grown_by(parse_reply("Optimal Actions:" + reply).hints, names)
 
 
+def _same_goal(reply: str, goal: str) -> bool:
+    try:
+        return goal_key(reply) == goal_key(goal)
+    except InputError:
+        return False
+
+
 def evaluate(scenario: Scenario, adapter: Path | None, examples: Sequence[Example], threads: int = 2) -> HeldOutScore:
-    """Ask every example's goal of the local model (with ``adapter``) and judge the answers."""
+    """Ask every example of the local model (with ``adapter``) as ``--llm local`` would, and judge the answers."""
     backend = LocalBackend(adapter=adapter, threads=threads)
     names = as_names(scenario.task)
     options = PromptOptions(style=PromptStyle.COMPLETION, taught=adapter is not None)
-    exact = covered = solved = 0
+    exact = covered = solved = read = refused = 0
     seconds: list[float] = []
+    hints_examples = [e for e in examples if e.kind is ExampleKind.HINTS]
+    goal_examples = [e for e in examples if e.kind is ExampleKind.GOAL]
+    refusals = [e for e in goal_examples if refusal_of(e.reply) is not None]
     try:
-        for example in examples:
-            request = build_request(names, example.goal, [], options)
-            reply = backend.complete(request)
+        for example in hints_examples:
+            reply = backend.complete(build_request(names, example.goal, [], options))
             seconds.append(reply.seconds)
             hints, label = _answer(names, reply.text), _answer(names, example.reply)
             exact += hints.path == label.path
@@ -80,11 +99,23 @@ def evaluate(scenario: Scenario, adapter: Path | None, examples: Sequence[Exampl
                 mutexes=scenario.mutexes, limits=Limits(time_s=ROUND_SECONDS),
             )  # fmt: skip
             solved += result.solved
+        for example in goal_examples:
+            instruction = example.prompt.removeprefix("Instruction: ").removesuffix("\nGoals:")
+            reply = backend.complete(goal_request(scenario.task, instruction, [], taught=adapter is not None))
+            seconds.append(reply.seconds)
+            answer = goal_reply(reply.text)
+            if refusal_of(example.reply) is not None:
+                refused += refusal_of(answer) is not None
+            else:
+                read += _same_goal(answer, example.goal)
     finally:
         backend.close()
-    count = max(1, len(examples))
+    count, asked = max(1, len(hints_examples)), max(1, len(goal_examples))
     middle = sorted(seconds)[len(seconds) // 2] if seconds else 0.0
-    return HeldOutScore(len(examples), exact / count, covered / count, solved / count, round(middle, 3))
+    return HeldOutScore(
+        len(hints_examples), exact / count, covered / count, solved / count, round(middle, 3),
+        len(goal_examples), (read + refused) / asked, len(refusals), refused / max(1, len(refusals)),
+    )  # fmt: skip
 
 
 def _child(source: dict[str, object], adapter: str | None, examples: list[dict[str, str]], out: str) -> None:
@@ -116,7 +147,8 @@ def evaluate_in_child(
     child.join()
     if child.exitcode != 0 or not out.is_file():
         log.warning("the held-out evaluation failed (exit code %s)", child.exitcode)
-        return HeldOutScore(len(examples), float("nan"), float("nan"), float("nan"), time.monotonic() - started)
+        nan = float("nan")
+        return HeldOutScore(len(examples), nan, nan, nan, time.monotonic() - started, 0, nan, 0, nan)
     data = json.loads(out.read_text(encoding="utf-8"))
     return HeldOutScore(**data)
 

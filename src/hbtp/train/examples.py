@@ -18,6 +18,7 @@ import enum
 import random
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import TypeVar
 
 from hbtp.datasets import dataset_names, load_dataset
 from hbtp.datasets.instructions import instruction_scenarios, load_instructions
@@ -28,6 +29,8 @@ from hbtp.errors import InputError
 from hbtp.llm.prompt import taught_prompt, taught_reply
 from hbtp.logic.goals import parse_goal
 from hbtp.planning.generate import LEVELS, Sampling, generate_records
+
+_T = TypeVar("_T")
 
 #: A goal as a set of disjuncts, each a set of literals in the datasets' spelling: two spellings of
 #: one goal (other order, other spaces) have the same key.
@@ -64,16 +67,6 @@ class Example:
     @classmethod
     def from_dict(cls, data: dict[str, str]) -> Example:
         return cls(ExampleKind(data["kind"]), data["goal"], data["prompt"], data["reply"])
-
-
-@dataclass(frozen=True)
-class ExampleSet:
-    """The examples trained on, and the ones held back to measure the model."""
-
-    train: tuple[Example, ...]
-    held_out: tuple[Example, ...]
-    #: Sampled goals left out because an evaluation set holds them.
-    dropped: int = 0
 
 
 def goal_key(goal: str) -> GoalKey:
@@ -115,12 +108,12 @@ def held_goals(scenario: Scenario) -> frozenset[GoalKey]:
     return frozenset(held)
 
 
-def sample_hints(scenario: Scenario, count: int, seed: int, max_expansions: int) -> tuple[list[Example], int]:
-    """About ``count`` hints examples of distinct goals over the levels of :data:`LEVEL_SHARES`, none
-    of an evaluation set; and how many sampled goals were left out for being one."""
+def sample_records(scenario: Scenario, count: int, seed: int, max_expansions: int) -> tuple[list[Record], int]:
+    """About ``count`` labelled goals, distinct, over the levels of :data:`LEVEL_SHARES`, none of an
+    evaluation set; and how many sampled goals were left out for being one."""
     held = held_goals(scenario)
     seen: set[GoalKey] = set()
-    examples: list[Example] = []
+    records: list[Record] = []
     dropped = 0
     for offset, (level, share) in enumerate(LEVEL_SHARES):
         sampling = Sampling(seed=seed * 1_000 + offset, max_expansions=max_expansions)
@@ -131,41 +124,24 @@ def sample_hints(scenario: Scenario, count: int, seed: int, max_expansions: int)
                 dropped += 1
             elif key not in seen:
                 seen.add(key)
-                examples.append(hints_example(record))
-    return examples, dropped
+                records.append(record)
+    return records, dropped
 
 
-def split(examples: Sequence[Example], held_out: float, seed: int) -> tuple[tuple[Example, ...], tuple[Example, ...]]:
-    """Shuffle ``examples`` (seeded) and hold back the share ``held_out`` of them."""
+def split(records: Sequence[_T], held_out: float, seed: int) -> tuple[list[_T], list[_T]]:
+    """Shuffle ``records`` (seeded) and hold back the share ``held_out`` of them."""
     if not 0 <= held_out < 1:
         raise InputError(f"the held-out share must be at least 0 and below 1, not {held_out}")
-    order = list(examples)
+    order = list(records)
     random.Random(seed).shuffle(order)
     kept = round(len(order) * held_out)
-    return tuple(order[kept:]), tuple(order[:kept])
-
-
-def make_examples(
-    scenario: Scenario, count: int, *, seed: int = 0, held_out: float = 0.1, max_expansions: int = 20_000
-) -> ExampleSet:
-    """The examples of ``scenario`` (see the module docstring), checked disjoint from its evaluation
-    sets; :class:`InputError` when the world is too small to sample from."""
-    examples, dropped = sample_hints(scenario, count, seed, max_expansions)
-    if len(examples) < 2:
-        raise InputError(
-            f"{scenario.name}: only {len(examples)} distinct goal(s) could be sampled; the world is too small to "
-            "teach a model (it needs actions that change the state from s0)"
-        )
-    check_disjoint(examples, held_goals(scenario), scenario.name)
-    train, held = split(examples, held_out, seed)
-    return ExampleSet(train, held, dropped)
+    return order[kept:], order[:kept]
 
 
 __all__ = [
     "LEVEL_SHARES",
     "Example",
     "ExampleKind",
-    "ExampleSet",
     "GoalKey",
     "LeakError",
     "check_disjoint",
@@ -173,7 +149,6 @@ __all__ = [
     "goal_key",
     "held_goals",
     "hints_example",
-    "make_examples",
-    "sample_hints",
+    "sample_records",
     "split",
 ]

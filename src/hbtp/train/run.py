@@ -15,19 +15,21 @@ import logging
 import math
 import shutil
 import time
+from collections import Counter
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 from hbtp.domains import Scenario
 from hbtp.errors import InputError
 from hbtp.files import InputKind, read_text, write_atomically
-from hbtp.llm.backends.adapters import KEY_BASE, KEY_WORLD, world_key
+from hbtp.llm.backends.adapters import KEY_BASE, KEY_WORLD, PROMPT_FORMAT, world_key
 from hbtp.llm.backends.local import default_model_sha256, resolve_model_path
 from hbtp.train.adapter_file import write_adapter
 from hbtp.train.evaluate import HeldOutScore, evaluate_in_child
-from hbtp.train.examples import Example, ExampleSet, make_examples
+from hbtp.train.example_set import ExampleSet, make_examples
+from hbtp.train.examples import Example
 from hbtp.train.lora import TrainReport, TrainSettings, train
 
 log = logging.getLogger(__name__)
@@ -51,12 +53,17 @@ class TrainRequest:
     work: Path | None = None  # checkpoints and examples (default: the cache's train folder)
     time_limit: float | None = None
     evaluate: bool = True
+    #: Teach instructions -> goals too (:mod:`hbtp.train.goal_examples`), beside goals -> hints.
+    instructions: bool = True
+    #: The command line that asked for this run (kept in the report beside the adapter).
+    command: str = ""
 
 
 @dataclass(frozen=True)
 class TrainOutcome:
     """What ``hbtp train`` made and measured."""
 
+    request: TrainRequest
     adapter: Path
     size: int
     examples: ExampleSet
@@ -65,7 +72,13 @@ class TrainOutcome:
     seconds: float
 
     def to_dict(self) -> dict[str, Any]:
+        kinds = Counter(e.kind.value for e in self.examples.train)
         return {
+            "command": self.request.command,
+            "scenario": self.request.scenario.name,
+            "settings": asdict(self.request.settings),
+            "requested_goals": self.request.count,
+            "train_examples_by_kind": dict(sorted(kinds.items())),
             "adapter": str(self.adapter),
             "bytes": self.size,
             "train_examples": len(self.examples.train),
@@ -104,9 +117,8 @@ def _available_memory_mb() -> float | None:
 
 def _examples(request: TrainRequest, work: Path) -> ExampleSet:
     """The request's examples, read back from ``work`` when the same request made them."""
-    key = hashlib.sha256(
-        json.dumps([request.source, request.count, request.held_out, request.settings.seed], sort_keys=True).encode()
-    ).hexdigest()
+    asked = [request.source, request.count, request.held_out, request.settings.seed, request.instructions]
+    key = hashlib.sha256(json.dumps([*asked, PROMPT_FORMAT], sort_keys=True).encode()).hexdigest()
     stored = work / "examples.json"
     if stored.is_file():
         data = json.loads(read_text(stored, InputKind.DATASET))
@@ -116,7 +128,13 @@ def _examples(request: TrainRequest, work: Path) -> ExampleSet:
                 tuple(Example.from_dict(e) for e in data["held_out"]),
                 int(data["dropped"]),
             )
-    examples = make_examples(request.scenario, request.count, seed=request.settings.seed, held_out=request.held_out)
+    examples = make_examples(
+        request.scenario,
+        request.count,
+        seed=request.settings.seed,
+        held_out=request.held_out,
+        instructions=request.instructions,
+    )
     document = {
         "key": key,
         "train": [e.to_dict() for e in examples.train],
@@ -156,7 +174,7 @@ def run_training(
     }
     size = write_adapter(state, request.settings.alpha, base, out, facts)
     score = evaluate_in_child(request.source, out, examples.held_out, work) if request.evaluate else None
-    outcome = TrainOutcome(out, size, examples, report, score, time.monotonic() - started)
+    outcome = TrainOutcome(request, out, size, examples, report, score, time.monotonic() - started)
     write_atomically(out.with_suffix(".json"), json.dumps(outcome.to_dict(), indent=1, sort_keys=True) + "\n")
     return outcome
 

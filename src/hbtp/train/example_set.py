@@ -1,0 +1,60 @@
+"""The examples a model is taught with, and the ones held back to measure it.
+
+Labelled goals (:func:`hbtp.train.examples.sample_records`) are split first and held back whole: a
+held-back goal is in no training example of either kind (hints, :mod:`hbtp.train.examples`;
+instructions, :mod:`hbtp.train.goal_examples`).
+"""
+
+from __future__ import annotations
+
+import random
+from dataclasses import dataclass
+
+from hbtp.domains import Scenario
+from hbtp.errors import InputError
+from hbtp.train.examples import Example, check_disjoint, held_goals, hints_example, sample_records, split
+from hbtp.train.goal_examples import goal_examples
+
+
+@dataclass(frozen=True)
+class ExampleSet:
+    """The examples trained on, and the ones held back to measure the model."""
+
+    train: tuple[Example, ...]
+    held_out: tuple[Example, ...]
+    #: Sampled goals left out because an evaluation set holds them.
+    dropped: int = 0
+
+
+def make_examples(
+    scenario: Scenario,
+    count: int,
+    *,
+    seed: int = 0,
+    held_out: float = 0.1,
+    max_expansions: int = 20_000,
+    instructions: bool = True,
+) -> ExampleSet:
+    """The examples of ``scenario`` (see the module docstring), checked disjoint from its evaluation
+    sets; :class:`InputError` when the world is too small to sample from.
+
+    Labelled goals are held back whole: a held-back goal is in no training example of either kind.
+    With ``instructions``, each goal also gives an instruction example (:mod:`hbtp.train.goal_examples`)."""
+    records, dropped = sample_records(scenario, count, seed, max_expansions)
+    if len(records) < 2:
+        raise InputError(
+            f"{scenario.name}: only {len(records)} distinct goal(s) could be sampled; the world is too small to "
+            "teach a model (it needs actions that change the state from s0)"
+        )
+    parts = []
+    for index, part in enumerate(split(records, held_out, seed)):
+        examples = [hints_example(record) for record in part]
+        if instructions:
+            examples += goal_examples(scenario, part, seed * 2 + index)
+        random.Random(f"order|{seed}|{index}").shuffle(examples)
+        parts.append(tuple(examples))
+    check_disjoint((e for part in parts for e in part), held_goals(scenario), scenario.name)
+    return ExampleSet(parts[0], parts[1], dropped)
+
+
+__all__ = ["ExampleSet", "make_examples"]

@@ -1,0 +1,137 @@
+"""Instruction examples for a taught model: goals said in words, and what to answer.
+
+The goals are built from the planner's labelled goals (:mod:`hbtp.train.examples`), so every one is
+solvable and none holds at the start:
+
+* *and*: a labelled goal as it is (one literal or several);
+* *or*: two labelled goals as alternatives (``A | B``);
+* *not*: a labelled goal with the negation of an atom its optimal plan makes false
+  (``A & ~p``: the plan reaches it), or that negation alone.
+
+Each is said as an instruction by :func:`hbtp.train.verbalise.verbalise` and answered with the goal
+(:func:`hbtp.llm.goal_prompt.taught_goal_reply`). A share of *refusals* teaches the model to refuse
+an instruction about something the world lacks: a labelled goal with one of its objects swapped for
+an object of the words file this world does not have ("put the sofa in the fridge" where there is no
+sofa), answered ``Unknown: sofa`` (:func:`hbtp.llm.goal_prompt.refusal_reply`).
+"""
+
+from __future__ import annotations
+
+import random
+import re
+from collections.abc import Sequence
+from dataclasses import replace
+
+from hbtp.datasets.records import Record
+from hbtp.domains import Scenario
+from hbtp.errors import InputError
+from hbtp.llm.goal_prompt import refusal_reply, taught_goal_prompt, taught_goal_reply
+from hbtp.logic.atoms import Atom, parse_atom
+from hbtp.logic.execution import apply_actions
+from hbtp.logic.goals import format_goal, parse_goal
+from hbtp.train.examples import Example, ExampleKind
+from hbtp.train.verbalise import Words, verbalise, words_for
+
+#: The shapes of the instruction goals, with their shares (refusals come on top: :data:`REFUSALS`).
+SHAPES: tuple[tuple[str, float], ...] = (("and", 0.6), ("or", 0.2), ("not", 0.2))
+#: Refusals per instruction example.
+REFUSALS = 0.08
+
+_WORD = re.compile(r"[a-z0-9]+")
+
+
+def negatable(scenario: Scenario, record: Record) -> list[Atom]:
+    """The fluent atoms that hold at the start and no longer hold after ``record``'s plan: their
+    negation is reached by that plan."""
+    task = scenario.task
+    try:
+        actions = [task.action(parse_atom(name)) for name in record.optimal_actions]
+    except InputError:
+        return []
+    final, done = apply_actions(task, actions)
+    if done < len(actions):
+        return []
+    gone = task.initial_state - final
+    return sorted(
+        (task.atoms[i] for i in gone if not task.atoms[i].negated and task.atoms[i].predicate in task.predicates),
+        key=lambda atom: atom.underscored,
+    )
+
+
+def instruction_goal(scenario: Scenario, record: Record, others: Sequence[Record], rng: random.Random) -> str:
+    """A goal of one of the :data:`SHAPES` (drawn by their shares) built on ``record``'s goal."""
+    shape = rng.choices([name for name, _ in SHAPES], [share for _, share in SHAPES])[0]
+    if shape == "or" and others:
+        other = rng.choice(others)
+        if other.goal != record.goal:
+            return f"{record.goal} | {other.goal}"
+    if shape == "not":
+        atoms = negatable(scenario, record)
+        if atoms:
+            negated = "~" + rng.choice(atoms).underscored
+            return negated if rng.random() < 0.3 else f"{record.goal} & {negated}"
+    return record.goal
+
+
+def foreign_objects(scenario: Scenario, words: Words) -> list[str]:
+    """Things of the words file (nouns said with "the") that this world lacks, and whose names share
+    no word with the names of this world's objects (so an instruction naming one names nothing the
+    world has)."""
+    data = words.data
+    if data is None:
+        return []
+    own = {name.lower() for name in (*scenario.task.objects, *scenario.task.constants)}
+    taken = {w for noun in words.objects.values() for name in noun.names for w in _WORD.findall(name.lower())}
+    taken -= {"the", "a", "an", "your", "my"}
+    foreign = []
+    for key, entry in sorted(data.objects.items()):
+        spoken = {w for name in entry.names for w in _WORD.findall(name.lower())}
+        if key not in own and entry.article and not entry.agent and not spoken & taken:
+            foreign.append(key)
+    return foreign
+
+
+def refusal_example(
+    scenario: Scenario, record: Record, foreign: Sequence[str], words: Words, rng: random.Random
+) -> Example | None:
+    """``record``'s goal with one object swapped for a foreign one, said in words and refused."""
+    terms = parse_goal(record.goal)
+    objects = sorted({arg for term in terms for atom in term for arg in atom.args} - set(scenario.task.constants))
+    if not objects or not foreign:
+        return None
+    swapped, stranger = rng.choice(objects), rng.choice(foreign)
+
+    def swap(atom: Atom) -> Atom:
+        return Atom(atom.predicate, tuple(stranger if x == swapped else x for x in atom.args), atom.negated)
+
+    goal = format_goal([tuple(swap(atom) for atom in term) for term in terms])
+    # The stranger is said by one of its names, and the refusal repeats that name.
+    noun = words.noun(stranger)
+    name = rng.choice(noun.names)
+    said = verbalise(goal, replace(words, objects={**words.objects, stranger: replace(noun, names=(name,))}), rng, 1)
+    if not said:
+        return None
+    bare = re.sub(r"^(?:the|a|an)\s+", "", name.lower())
+    return Example(ExampleKind.GOAL, record.goal, taught_goal_prompt(said[0]), refusal_reply(bare))
+
+
+def goal_examples(scenario: Scenario, records: Sequence[Record], seed: int) -> list[Example]:
+    """One instruction example per record (a goal of a drawn shape, said in words), and refusals
+    for about :data:`REFUSALS` of them; the same for the same seed."""
+    rng = random.Random(f"goal-examples|{seed}")
+    words = words_for(scenario)
+    foreign = foreign_objects(scenario, words)
+    examples: list[Example] = []
+    for record in records:
+        goal = instruction_goal(scenario, record, records, rng)
+        said = verbalise(goal, words, rng, 1)
+        if said:
+            examples.append(Example(ExampleKind.GOAL, goal, taught_goal_prompt(said[0]), taught_goal_reply(goal)))
+        if rng.random() < REFUSALS:
+            refusal = refusal_example(scenario, record, foreign, words, rng)
+            if refusal is not None:
+                examples.append(refusal)
+    return examples
+
+
+__all__ = ["REFUSALS", "SHAPES", "foreign_objects", "goal_examples", "instruction_goal", "negatable", "refusal_example"]

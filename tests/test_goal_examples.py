@@ -1,0 +1,66 @@
+"""Instruction examples for a taught model (hbtp.train.goal_examples): solvable goals of three
+shapes said in words, and refusals of instructions about what the world lacks."""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+
+from hbtp.domains import Scenario
+from hbtp.llm.goal_prompt import refusal_of, taught_goal_prompt
+from hbtp.logic.goals import parse_goal
+from hbtp.planning import plan
+from hbtp.planning.generate import LEVELS, Sampling, generate_records
+from hbtp.train.examples import ExampleKind
+from hbtp.train.goal_examples import foreign_objects, goal_examples, instruction_goal, negatable
+from hbtp.train.verbalise import words_for
+
+
+@pytest.fixture(scope="module")
+def records(virtualhome: Scenario) -> list:
+    return generate_records(virtualhome.task, LEVELS["any"], 40, Sampling(seed=4), virtualhome.mutexes)
+
+
+def test_every_instruction_goal_is_solvable_and_not_already_true(virtualhome: Scenario, records: list) -> None:
+    rng = random.Random(2)
+    shapes = {"and": 0, "or": 0, "not": 0}
+    for record in records:
+        goal = instruction_goal(virtualhome, record, records, rng)
+        terms = parse_goal(goal)
+        shapes["or" if len(terms) > 1 else "not" if any(a.negated for a in terms[0]) else "and"] += 1
+        extended, resolved = virtualhome.resolve_goal(goal)
+        assert not resolved.holds(extended.task.initial_state), goal
+        result = plan(extended.task, resolved, "obtea", heuristic="lm", mutexes=extended.mutexes.proved_only())
+        assert result.solved, goal
+    assert all(count > 0 for count in shapes.values()), shapes
+
+
+def test_a_negation_is_of_an_atom_the_plan_makes_false(virtualhome: Scenario, records: list) -> None:
+    task = virtualhome.task
+    found = [(record, atom) for record in records for atom in negatable(virtualhome, record)]
+    assert found
+    for _, atom in found:
+        assert task.atom_id(atom) in task.initial_state
+
+
+def test_refusals_name_only_what_the_world_lacks(virtualhome: Scenario, records: list) -> None:
+    words = words_for(virtualhome)
+    foreign = foreign_objects(virtualhome, words)
+    own = {name.lower() for name in (*virtualhome.task.objects, *virtualhome.task.constants)}
+    assert len(foreign) >= 20
+    assert not own & set(foreign)
+    examples = goal_examples(virtualhome, records * 5, seed=1)
+    refusals = [e for e in examples if refusal_of(e.reply) is not None]
+    assert refusals
+    for example in refusals:
+        lacking = refusal_of(example.reply)
+        assert lacking is not None
+        assert lacking in example.prompt.lower()  # the instruction says what is refused
+    for example in examples:
+        assert example.kind is ExampleKind.GOAL
+        assert example.prompt.startswith("Instruction: ")
+        assert example.prompt == taught_goal_prompt(
+            example.prompt.removeprefix("Instruction: ").removesuffix("\nGoals:")
+        )
+    assert goal_examples(virtualhome, records, seed=1) == goal_examples(virtualhome, records, seed=1)
