@@ -362,3 +362,11 @@ def test_a_call_is_stopped_at_its_time_limit_and_not_started_without_time() -> N
     with pytest.raises(BackendTimeLimit, match="no time"):
         backend.complete(Request((), "Goals: x\nOptimal Actions:", time_limit=0.0))
     backend._server = None
+
+
+def test_one_thread_generates_and_all_of_them_read_the_prompt(tiny_gguf: Path) -> None:
+    from hbtp.llm.backends.local import DECODE_THREADS, make_params
+
+    params = make_params(_fake_xllamacpp(None), tiny_gguf, threads=2, context=512)
+    assert params.cpuparams.n_threads == DECODE_THREADS == 1
+    assert params.cpuparams_batch.n_threads == 2
