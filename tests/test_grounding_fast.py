@@ -65,8 +65,9 @@ def _assert_restriction(part: GroundTask, full: GroundTask, only: Only, reachabl
 
 
 def _ground_shipped(name: str, only: Only | None = None) -> tuple[GroundTask, GroundTask]:
-    """The shipped scenario's task, and ``name`` grounded again with ``only``, with its options."""
-    scenario = load_scenario(name)
+    """The shipped scenario's task (the paper's action space, as ``ground`` gives it), and ``name``
+    grounded again with ``only``, with its options."""
+    scenario = load_scenario(name, keep_self_placements=True)
     options = ScenarioOptions.shipped(name)
     part = ground(
         scenario.pddl.domain,
@@ -188,7 +189,7 @@ def test_with_only_the_limit_applies_to_the_actions_kept() -> None:
 # ================================================================ action_bindings
 @pytest.mark.parametrize("name", ["robowaiter", "virtualhome", "robothow-small", "robothow"])
 def test_action_bindings_name_exactly_the_ground_actions(name: str) -> None:
-    scenario = load_scenario(name)
+    scenario = load_scenario(name, keep_self_placements=True)  # the paper's action space, as ground() gives it
     options = ScenarioOptions.shipped(name)
     found = action_bindings(scenario.pddl.domain, scenario.pddl.problem, keep_fluent=options.keep_fluent)
     assert list(found) == [schema.name for schema in scenario.pddl.domain.actions]

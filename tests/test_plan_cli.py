@@ -374,27 +374,42 @@ def test_scenarios_json_counts(capsys: pytest.CaptureFixture[str]) -> None:
     assert code == EXIT_OK
     rows = {row["name"]: row for row in json.loads(out)}
     assert list(rows) == list(scenario_names())
+    # The actions plans use, and the self-placements left out (the paper's counts are their sums).
     expected = {
-        "robowaiter": (174, 6, 31),
-        "virtualhome": (480, 11, 36),
-        "robothow-small": (155, 16, 17),
-        "robothow": (7329, 16, 126),
+        "robowaiter": (174, 0, 6, 31),
+        "virtualhome": (478, 2, 11, 36),
+        "robothow-small": (155, 0, 16, 17),
+        "robothow": (7311, 18, 16, 126),
     }
-    for name, (actions, predicates, objects) in expected.items():
-        assert (rows[name]["actions"], rows[name]["action_predicates"], rows[name]["objects"]) == (
-            actions,
-            predicates,
-            objects,
-        ), name
+    for name, figures in expected.items():
+        row = rows[name]
+        assert (row["actions"], row["left_out"], row["action_predicates"], row["objects"]) == figures, name
         assert rows[name] == load_scenario(name).summary()
+    code, out, _ = run(capsys, "scenarios")
+    assert code == EXIT_OK
+    assert out.splitlines()[4].split()[:3] == ["robothow", "7311", "18"]
 
 
 def test_ground_names_match_the_reference_action_list(capsys: pytest.CaptureFixture[str], data_dir: Path) -> None:
-    code, out, _ = run(capsys, "ground", "-s", "robothow", "--names")
+    code, out, _ = run(capsys, "ground", "-s", "robothow", "--names", "--keep-self-placements")
     assert code == EXIT_OK
     reference = (data_dir / "robothow_action_names.txt").read_text(encoding="utf-8").split()
     assert out.split() == reference
     assert len(reference) == 7329
+    code, out, _ = run(capsys, "ground", "-s", "robothow", "--names")
+    assert code == EXIT_OK
+    planned = out.split()
+    assert len(planned) == 7311
+    assert set(reference) - set(planned) == {name for name in reference if "(" in name and _self_pair(name)}
+    code, out, _ = run(capsys, "ground", "-s", "robothow")
+    assert code == EXIT_OK
+    assert "left_out           18 (self-placements such as LeftPut(boardgame,boardgame))" in out.splitlines()
+
+
+def _self_pair(action: str) -> bool:
+    """Whether the action name takes the same object twice: ``LeftPut(chair,chair)``."""
+    args = action[action.index("(") + 1 : -1].split(",")
+    return len(args) == 2 and args[0] == args[1]
 
 
 def test_dataset_validate_reports_the_two_invalid_table1_records(capsys: pytest.CaptureFixture[str]) -> None:

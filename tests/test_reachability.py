@@ -97,7 +97,7 @@ def test_pruning_never_removes_an_action_of_a_plan(seed: int) -> None:
     ],
 )
 def test_scenarios_keep_their_counts_and_lose_only_unreachable_actions(name: str, removed: list[str]) -> None:
-    scenario = load_scenario(name)
+    scenario = load_scenario(name, keep_self_placements=True)  # the paper's action space
     parsed = scenario.parsed
     assert parsed is not None
     task = scenario.task

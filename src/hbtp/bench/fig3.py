@@ -16,14 +16,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from hbtp.bench.paper import paper_scaled, paper_scenario
 from hbtp.bench.plots import plot_fig3
 from hbtp.bench.report import fig3_section, write_report
 from hbtp.bench.results import ResultsFile, mean, median, write_json
 from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, hard_limit, run_work
 from hbtp.datasets import load_dataset, validate_records
 from hbtp.datasets.records import Record
-from hbtp.domains import load_scenario
-from hbtp.domains.scale import scaled_scenario
 from hbtp.llm.parse import hints_from_record
 from hbtp.planning import Limits, plan
 from hbtp.planning.heuristics import HeuristicName
@@ -58,7 +57,7 @@ class Fig3Run:
 
 def run_fig3(config: Fig3Config, out: Path, execution: Execution = DEFAULT_EXECUTION) -> dict[str, Any]:
     """Run (or resume) Figure 3 into ``out``; returns the summary (also summary.json, fig3.png)."""
-    base = load_scenario("robothow")
+    base = paper_scenario("robothow")
     records = load_dataset(DATASET)
     invalid = set(validate_records(records, base.task).invalid_ids)
     records = [r for r in records if r.id not in invalid][: config.limit]
@@ -96,7 +95,7 @@ def run_fig3(config: Fig3Config, out: Path, execution: Execution = DEFAULT_EXECU
 #: The scaled scenarios a worker process has built. A per-process cache, not a per-task table (it
 #: makes the task): building one takes seconds, and runs come ordered by scale, so two (the scale
 #: being run and the one before) bound the memory of a worker while sparing every rebuild.
-_scaled = functools.lru_cache(maxsize=2)(scaled_scenario)
+_scaled = functools.lru_cache(maxsize=2)(paper_scaled)
 
 
 def run_one(run: Fig3Run) -> dict[str, Any]:

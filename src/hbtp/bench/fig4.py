@@ -16,13 +16,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from hbtp.bench.paper import paper_scenario
 from hbtp.bench.plots import plot_fig4
 from hbtp.bench.report import fig4_section, write_report
 from hbtp.bench.results import ResultsFile, mean, write_json
 from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, hard_limit, run_work
 from hbtp.datasets import load_dataset, validate_records
 from hbtp.datasets.records import Record
-from hbtp.domains import load_scenario
 from hbtp.llm.parse import hints_from_record
 from hbtp.logic.tables import TaskTable
 from hbtp.logic.task import GroundAction, GroundTask
@@ -68,7 +68,7 @@ class Fig4Run:
 def run_fig4(config: Fig4Config, out: Path, execution: Execution = DEFAULT_EXECUTION) -> dict[str, Any]:
     """Run (or resume) Figure 4 into ``out``; returns the summary (also summary.json, and fig4.png
     when matplotlib is installed)."""
-    scenario = load_scenario(SCENARIO)
+    scenario = paper_scenario(SCENARIO)
     records = load_dataset(DATASET)
     invalid = set(validate_records(records, scenario.task).invalid_ids)
     records = [r for r in records if r.id not in invalid][: config.limit]
@@ -115,7 +115,7 @@ def _pruned_space(task: GroundTask, record: Record) -> tuple[GroundAction, ...]:
 
 def run_one(run: Fig4Run) -> dict[str, Any]:
     """Plan one task with a noisy p̂ in the record's pruned space."""
-    scenario = load_scenario(SCENARIO)
+    scenario = paper_scenario(SCENARIO)
     task = scenario.task
     record = run.record
     space = _pruned_space(task, record)

@@ -27,12 +27,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from hbtp.bench.paper import paper_scenario
 from hbtp.bench.results import ResultsFile, mean, median, write_json
 from hbtp.bt import full_tree
 from hbtp.bt.disturb import exactly_one_groups
 from hbtp.bt.simulate import simulate
 from hbtp.datasets.instructions import InstructionRecord, load_instructions
-from hbtp.domains import Scenario, load_scenario
+from hbtp.domains import Scenario
 from hbtp.errors import HbtpError
 from hbtp.files import write_atomically
 from hbtp.llm.backend import Backend
@@ -149,7 +150,7 @@ def run_instructions(bench: InstructionsBench, make: Any, out: Path) -> dict[str
     results = ResultsFile(out / "results.jsonl", KEY)
     keys: list[tuple[Any, ...]] = []
     for name in bench.scenarios:
-        scenario = load_scenario(name)
+        scenario = paper_scenario(name)
         backend: Backend | None = None
         try:
             for record in load_instructions(name)[: bench.limit]:

@@ -37,6 +37,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from hbtp.bench.paper import paper_options, paper_scaled, paper_scenario
 from hbtp.bench.plots import plot_payoff
 from hbtp.bench.report import _table, write_report
 from hbtp.bench.results import ResultsFile, median, write_json
@@ -47,11 +48,10 @@ from hbtp.bt.simulate import simulate
 from hbtp.bt.verify import verify
 from hbtp.datasets import load_dataset, validate_records
 from hbtp.datasets.records import Record
-from hbtp.domains import load_scenario
 from hbtp.domains.cache import cache_dir
 from hbtp.domains.pruned import PrunedWorld
-from hbtp.domains.scale import clone_objects, scaled_scenario
-from hbtp.domains.scenarios import Scenario, ScenarioOptions
+from hbtp.domains.scale import clone_objects
+from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError
 from hbtp.llm.backend import Backend
 from hbtp.llm.backends.registry import BackendOptions
@@ -135,10 +135,10 @@ class PayoffRun:
 def _world(scenario: str, scale: float) -> tuple[Scenario, float, str]:
     """The world, the seconds it took to load, and how it was loaded (kept while runs use it)."""
     if math.isclose(scale, 1.0):
-        loaded = load_scenario(scenario)
+        loaded = paper_scenario(scenario)
         return loaded, loaded.load_seconds, "shipped (disk cache)" if cache_dir() else "shipped (built: no cache)"
     started = time.perf_counter()
-    loaded = scaled_scenario(scenario, scale)
+    loaded = paper_scaled(scenario, scale)
     return loaded, time.perf_counter() - started, "scaled (built)"
 
 
@@ -146,9 +146,9 @@ def _world(scenario: str, scale: float) -> tuple[Scenario, float, str]:
 def _names_of_world(scenario: str, scale: float) -> tuple[PrunedWorld, float]:
     """The world pruned before grounding (its action names listed, nothing grounded) and the seconds
     that took: the shipped PDDL read, grown ``scale`` times."""
-    base = load_scenario(scenario)
+    base = paper_scenario(scenario)
     started = time.perf_counter()
-    options, parsed = ScenarioOptions.shipped(scenario), base.pddl
+    options, parsed = paper_options(scenario), base.pddl
     if not math.isclose(scale, 1.0):
         options = replace(options, name=f"{scenario}-x{scale:g}")
         parsed = replace(parsed, problem=clone_objects(parsed.problem, scale))
@@ -159,7 +159,7 @@ def _names_of_world(scenario: str, scale: float) -> tuple[PrunedWorld, float]:
 @functools.lru_cache(maxsize=8)
 def _pool(scenario: str) -> list[Record]:
     """Demonstrations: the shipped scenario's pool (valid in its grown worlds: clones add, never change)."""
-    return example_pool(load_scenario(scenario))
+    return example_pool(paper_scenario(scenario))
 
 
 #: The backend of the world being run, with the seconds it took to build (a local model's load: it is
@@ -295,7 +295,7 @@ def worlds(config: PayoffConfig) -> list[tuple[World, list[Record]]]:
     cells = []
     for world in _cells_of(config):
         if world.axis == "set":
-            test_set = load_scenario(world.scenario).test_set
+            test_set = paper_scenario(world.scenario).test_set
             if test_set is None:
                 raise InputError(f"scenario {world.scenario} has no test set")
             cells.append((world, load_dataset(test_set)[: config.tasks]))
@@ -308,7 +308,7 @@ def worlds(config: PayoffConfig) -> list[tuple[World, list[Record]]]:
 
 def _generated(level: str, count: int) -> list[Record]:
     """``count`` RobotHow goals of ``level``, sampled with seed 0 and labelled with optimal plans."""
-    base = load_scenario("robothow")
+    base = paper_scenario("robothow")
     return generate_records(base.task, level, count, Sampling(seed=0), base.mutexes)
 
 
@@ -316,7 +316,7 @@ def _generated(level: str, count: int) -> list[Record]:
 def _size_tasks(count: int) -> list[Record]:
     """The first ``count`` Table I tasks that are valid in RobotHow."""
     records = load_dataset(SIZE_DATASET)
-    invalid = set(validate_records(records, load_scenario("robothow").task).invalid_ids)
+    invalid = set(validate_records(records, paper_scenario("robothow").task).invalid_ids)
     return [r for r in records if r.id not in invalid][:count]
 
 

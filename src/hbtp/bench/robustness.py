@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from hbtp.bench.paper import paper_scenario
 from hbtp.bench.plots import plot_robustness
 from hbtp.bench.report import robustness_section, write_report
 from hbtp.bench.results import ResultsFile, mean, median, write_json
@@ -28,7 +29,7 @@ from hbtp.bt.nodes import Node, size
 from hbtp.bt.simulate import condition_checks
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
-from hbtp.domains import Scenario, load_scenario
+from hbtp.domains import Scenario
 from hbtp.errors import InputError
 from hbtp.llm.parse import hints_from_record
 from hbtp.logic.task import Goal
@@ -227,7 +228,7 @@ def _killed_rows(scenario: str, record: Record, config: RobustnessConfig) -> tup
 
 def run_one(run: RobustnessRun) -> list[dict[str, Any]]:
     """The rows of one task: one per (p, tree)."""
-    return _run_task(load_scenario(run.scenario), run.record, run.config)
+    return _run_task(paper_scenario(run.scenario), run.record, run.config)
 
 
 def _run_task(scenario: Scenario, record: Record, config: RobustnessConfig) -> list[dict[str, Any]]:

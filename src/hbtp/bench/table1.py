@@ -8,13 +8,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
+from hbtp.bench.paper import paper_scenario
 from hbtp.bench.plots import plot_table1
 from hbtp.bench.report import table1_section, write_report
 from hbtp.bench.results import ResultsFile, mean, median, write_json
 from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, RunFailure, Work, hard_limit, run_work
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
-from hbtp.domains import load_scenario
 from hbtp.llm.parse import hints_from_record
 from hbtp.planning import Limits, plan
 from hbtp.planning.heuristics import HeuristicName
@@ -134,7 +134,7 @@ def write_table1_report(out: Path, summaries: dict[str, dict[str, Any]]) -> None
 
 def run_one(run: Table1Run) -> dict[str, Any]:
     """Plan one Table I task (in a worker; the scenario is loaded once per process)."""
-    scenario = load_scenario(SCENARIO)
+    scenario = paper_scenario(SCENARIO)
     record = run.record
     hints = hints_from_record(record) if run.hints == "oracle" else None
     space = run.space if hints is not None else Space.FULL

@@ -16,13 +16,13 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, cast
 
+from hbtp.bench.paper import paper_scenario
 from hbtp.bench.plots import plot_table2
 from hbtp.bench.report import table2_section, write_report
 from hbtp.bench.results import ResultsFile, mean, write_json
 from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, RunFailure, Work, run_work
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
-from hbtp.domains import load_scenario
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError
 from hbtp.llm.backend import Backend
@@ -167,7 +167,7 @@ def _examples(scenario: Scenario) -> list[Record]:
 
 def run_one(run: Table2Run) -> dict[str, Any]:
     """The HBTP loop on one task, with the oracle columns and the B-Time baseline."""
-    scenario = load_scenario(run.scenario)
+    scenario = paper_scenario(run.scenario)
     record = run.record
     loop = run_hbtp(scenario, record.goal, _backend(run.recipe, scenario, run.run), _examples(scenario), run.loop)
     row = _row(scenario, record, run.backend, run.run, loop)
@@ -222,7 +222,7 @@ def run_table2(
     execution: Execution = DEFAULT_EXECUTION,
 ) -> dict[str, Any]:
     """Run (or resume) one scenario's Table II into ``out``."""
-    scenario = load_scenario(config.scenario)
+    scenario = paper_scenario(config.scenario)
     dataset = config.dataset or scenario.test_set
     if dataset is None:
         raise InputError(f"scenario {scenario.name} has no test set")

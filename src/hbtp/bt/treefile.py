@@ -45,6 +45,7 @@ class PddlFiles:
     keep_fluent: tuple[str, ...] = ()
     mutex: Path | None = None
     folder: Path | None = None
+    irreflexive: tuple[str, ...] = ()
 
     def paths(self) -> tuple[Path, ...]:
         return (self.domain, self.problem) if self.mutex is None else (self.domain, self.problem, self.mutex)
@@ -77,6 +78,8 @@ class PddlFiles:
             record["keep_fluent"] = list(self.keep_fluent)
         if self.mutex is not None:
             record["mutex"] = _relative(self.mutex, relative_to)
+        if self.irreflexive:
+            record["irreflexive"] = list(self.irreflexive)
         return record
 
     @classmethod
@@ -104,6 +107,7 @@ class PddlFiles:
             names("keep_fluent"),
             path("mutex") if data.get("mutex") is not None else None,
             folder,
+            names("irreflexive"),
         )
 
 

@@ -19,16 +19,17 @@ from hbtp.logic.relevance import relevant_actions
 @click.command()
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def scenarios(as_json: bool) -> int:
-    """List the shipped scenarios with their sizes."""
+    """List the shipped scenarios with their sizes: the actions plans use, and the self-placements
+    left out of them (the paper's action lists hold both)."""
     rows = [load_scenario(name).summary() for name in scenario_names()]
     if as_json:
         echo_json(rows)
         return 0
-    click.echo(f"{'name':16} {'actions':>8} {'action preds':>12} {'objects':>8} {'s0':>4}  title")
+    click.echo(f"{'name':16} {'actions':>8} {'left out':>8} {'action preds':>12} {'objects':>8} {'s0':>4}  title")
     for row in rows:
         click.echo(
-            f"{row['name']:16} {row['actions']:>8} {row['action_predicates']:>12} {row['objects']:>8} "
-            f"{row['s0']:>4}  {row['title']}"
+            f"{row['name']:16} {row['actions']:>8} {row['left_out']:>8} {row['action_predicates']:>12} "
+            f"{row['objects']:>8} {row['s0']:>4}  {row['title']}"
         )
     return 0
 
@@ -68,6 +69,8 @@ def ground(source: ScenarioSource, names: bool, as_json: bool, time_limit: float
     summary = loaded.summary()
     for key in ("name", "actions", "action_predicates", "objects", "s0", "atoms", "mutex_groups"):
         click.echo(f"{key:18} {summary[key]}")
+    if loaded.left_out:
+        click.echo(f"{'left_out':18} {len(loaded.left_out)} (self-placements such as {loaded.left_out[0]})")
     click.echo(f"{'grounding_s':18} {loaded.load_seconds:.3f}")
     goal_actions = _goal_actions(loaded)
     if goal_actions is not None:

@@ -28,13 +28,19 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 @dataclass(frozen=True)
 class ScenarioSource:
-    """Which scenario a command works on: a shipped one, or the user's PDDL with its options."""
+    """Which scenario a command works on: a shipped one, or the user's PDDL with its options.
+
+    ``irreflexive`` (with ``pddl``) names relations that never hold between an object and itself
+    (the shipped scenarios declare theirs): the actions that add one between an object and itself
+    are left out unless ``keep_self_placements`` (:mod:`hbtp.domains.irreflexive`)."""
 
     scenario: str | None = None
     pddl: tuple[str, str] | None = None
     object_categories: tuple[str, ...] = ()
     keep_fluent: tuple[str, ...] = ()
     mutex_file: str | None = None
+    irreflexive: tuple[str, ...] = ()
+    keep_self_placements: bool = False
 
     @property
     def given(self) -> bool:
@@ -50,9 +56,8 @@ class ScenarioSource:
         if not scenario and not pddl and default in scenario_names():
             scenario = default
         if scenario:
-            if self.object_categories or self.keep_fluent or self.mutex_file:
-                raise InputError("--objects, --keep-fluent and --mutex go with --pddl")
-            return load_scenario(scenario)
+            self._check_shipped()
+            return load_scenario(scenario, keep_self_placements=self.keep_self_placements)
         if pddl:
             return load_pddl_scenario(pddl[0], pddl[1], self._pddl_options(), deadline=deadline)
         raise InputError(f"choose a scenario with --scenario ({', '.join(scenario_names())}) or --pddl DOMAIN PROBLEM")
@@ -62,14 +67,18 @@ class ScenarioSource:
         if self.scenario and self.pddl:
             raise InputError("give either --scenario or --pddl, not both")
         if self.scenario:
-            if self.object_categories or self.keep_fluent or self.mutex_file:
-                raise InputError("--objects, --keep-fluent and --mutex go with --pddl")
-            shipped = load_scenario(self.scenario)
-            options = ScenarioOptions.shipped(self.scenario)
+            self._check_shipped()
+            shipped = load_scenario(self.scenario, keep_self_placements=self.keep_self_placements)
+            options = ScenarioOptions.shipped(self.scenario, keep_self_placements=self.keep_self_placements)
             return PrunedWorld.load(shipped.domain_file, shipped.problem_file, options, deadline=deadline)
         if self.pddl:
             return PrunedWorld.load(self.pddl[0], self.pddl[1], self._pddl_options(), deadline=deadline)
         raise InputError(f"choose a scenario with --scenario ({', '.join(scenario_names())}) or --pddl DOMAIN PROBLEM")
+
+    def _check_shipped(self) -> None:
+        """A shipped scenario brings its own options: refuse those of --pddl."""
+        if self.object_categories or self.keep_fluent or self.mutex_file or self.irreflexive:
+            raise InputError("--objects, --keep-fluent, --irreflexive and --mutex go with --pddl")
 
     def _pddl_options(self) -> ScenarioOptions:
         declared = read_mutex_file(self.mutex_file) if self.mutex_file else {"groups": [], "nogoods": []}
@@ -78,6 +87,8 @@ class ScenarioSource:
             objects=self.object_categories,
             mutex_groups=declared["groups"],
             mutex_nogoods=declared["nogoods"],
+            irreflexive=self.irreflexive,
+            keep_self_placements=self.keep_self_placements,
         )
 
 
@@ -107,12 +118,23 @@ def _scenario_source(
     object_categories: tuple[str, ...],
     keep_fluent: tuple[str, ...],
     mutex_file: str | None,
+    irreflexive: tuple[str, ...],
+    keep_self_placements: bool,
 ) -> ScenarioSource:
-    return ScenarioSource(scenario, pddl or None, tuple(object_categories), tuple(keep_fluent), mutex_file)
+    return ScenarioSource(
+        scenario,
+        pddl or None,
+        tuple(object_categories),
+        tuple(keep_fluent),
+        mutex_file,
+        tuple(irreflexive),
+        keep_self_placements,
+    )
 
 
 #: ``--scenario NAME`` or ``--pddl DOMAIN PROBLEM`` (with ``--mutex FILE``, ``--objects CAT``,
-#: ``--keep-fluent PRED``), handed to the command as one ``source: ScenarioSource`` argument.
+#: ``--keep-fluent PRED``, ``--irreflexive PRED``) and ``--keep-self-placements``, handed to the
+#: command as one ``source: ScenarioSource`` argument.
 scenario_options = option_group(
     "source",
     _scenario_source,
@@ -128,6 +150,19 @@ scenario_options = option_group(
     ),
     click.option(
         "--mutex", "mutex_file", type=click.Path(dir_okay=False), help="TOML file of declared mutexes (with --pddl)."
+    ),
+    click.option(
+        "--irreflexive",
+        multiple=True,
+        metavar="PRED",
+        help="With --pddl: a relation that never holds between an object and itself (IsOn); "
+        "the actions that add one, P(x,x), are left out.",
+    ),
+    click.option(
+        "--keep-self-placements",
+        is_flag=True,
+        help="Keep the actions that put an object on or in itself (RobotHow's LeftPut(chair,chair)): "
+        "the paper's action space.",
     ),
 )
 

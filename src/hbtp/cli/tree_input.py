@@ -37,7 +37,9 @@ def pddl_files(source: ScenarioSource) -> PddlFiles | None:
         return None
     domain, problem = source.pddl
     mutex = Path(source.mutex_file) if source.mutex_file else None
-    return PddlFiles(Path(domain), Path(problem), source.object_categories, source.keep_fluent, mutex)
+    return PddlFiles(
+        Path(domain), Path(problem), source.object_categories, source.keep_fluent, mutex, irreflexive=source.irreflexive
+    )
 
 
 def scenario_for(file: TreeFile, source: ScenarioSource) -> Scenario:
@@ -50,6 +52,7 @@ def scenario_for(file: TreeFile, source: ScenarioSource) -> Scenario:
             object_categories=source.object_categories or pddl.objects,
             keep_fluent=source.keep_fluent or pddl.keep_fluent,
             mutex_file=source.mutex_file or (str(pddl.mutex) if pddl.mutex is not None else None),
+            irreflexive=source.irreflexive or pddl.irreflexive,
         )
     elif not source.given and file.scenario is not None and file.scenario not in scenario_names():
         raise InputError(

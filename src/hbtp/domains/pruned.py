@@ -19,6 +19,11 @@ a condition predicate's argument takes are read off the lifted conditions and ef
 parameter's values are those of its action's bindings; a ``forall`` variable's, the objects of its
 type in the categories its guard requires), a superset of the atoms a grounding would make. Its
 prompts can therefore name a wider category in a condition predicate than the grounded world's.
+
+The self-placements a world leaves out (``ScenarioOptions.irreflexive``, see
+:mod:`hbtp.domains.irreflexive`) are left out of its names when an unconditional effect makes them
+(the shipped scenarios' Put and PutIn); one made by a ``forall`` or ``when`` effect is still named,
+and left out when its part is grounded.
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -39,6 +45,7 @@ from hbtp.domains.grounding import (
     objects_by_type,
     objects_of_categories,
 )
+from hbtp.domains.irreflexive import checked_irreflexive, names_self_placement
 from hbtp.domains.lifted import (
     AddEffect,
     And,
@@ -163,8 +170,14 @@ def lifted_names(pddl: Pddl, options: ScenarioOptions | None = None, deadline: D
     options = options or ScenarioOptions()
     domain, problem = pddl.domain, pddl.problem
     bindings = action_bindings(domain, problem, keep_fluent=options.keep_fluent, deadline=deadline)
+    left_out = _self_placing(pddl, options)
     named = sorted(
-        ((Atom(schema, args), cost) for schema, found in bindings.items() for args, cost in found),
+        (
+            (Atom(schema, args), cost)
+            for schema, found in bindings.items()
+            for args, cost in found
+            if not (schema in left_out and left_out[schema](args))
+        ),
         key=lambda item: str(item[0]),
     )
     fluent = frozenset(p for p in fluent_predicates(domain, frozenset(options.keep_fluent)) if p in domain.predicates)
@@ -185,6 +198,16 @@ def lifted_names(pddl: Pddl, options: ScenarioOptions | None = None, deadline: D
         condition_slots={p: tuple(frozenset(s) for s in slots.get(p, ())) for p in sorted(fluent)},
         categories=categories,
     )
+
+
+def _self_placing(pddl: Pddl, options: ScenarioOptions) -> dict[str, Callable[[Sequence[str]], bool]]:
+    """Per action schema, whether a ground action's arguments make it a self-placement the scenario
+    leaves out (:func:`hbtp.domains.irreflexive.names_self_placement`); empty when none is."""
+    arities = {name: len(parameters) for name, parameters in pddl.domain.predicates.items()}
+    declared = checked_irreflexive(arities, options.irreflexive)
+    if options.keep_self_placements or not declared:
+        return {}
+    return {schema.name: names_self_placement(schema, declared) for schema in pddl.domain.actions}
 
 
 def _condition_slots(

@@ -50,13 +50,14 @@ def clone_objects(problem: Problem, factor: float) -> Problem:
     )
 
 
-def scaled_scenario(name: str, factor: float) -> Scenario:
-    """A shipped scenario with its objects cloned ``factor`` times (``factor`` 1: the scenario itself)."""
-    base = load_scenario(name)
+def scaled_scenario(name: str, factor: float, *, keep_self_placements: bool = False) -> Scenario:
+    """A shipped scenario with its objects cloned ``factor`` times (``factor`` 1: the scenario itself),
+    its self-placements left out unless ``keep_self_placements`` (see :func:`load_scenario`)."""
+    base = load_scenario(name, keep_self_placements=keep_self_placements)
     if math.isclose(factor, 1.0):
         return base
     options = dataclasses.replace(
-        ScenarioOptions.shipped(name),
+        ScenarioOptions.shipped(name, keep_self_placements=keep_self_placements),
         name=f"{name}-x{factor:g}",
         title=f"{base.title} x{factor:g}",
         description="",

@@ -22,6 +22,7 @@ from hbtp.deadline import Deadline, check_deadline
 from hbtp.domains import cache
 from hbtp.domains.cache import cache_dir
 from hbtp.domains.grounding import ActionFilter, ground, objects_by_type, typed_objects
+from hbtp.domains.irreflexive import checked_irreflexive, without_self_placements
 from hbtp.domains.lifted import (
     And,
     AtomFormula,
@@ -108,6 +109,8 @@ def read_pddl(domain_file: str | Path, problem_file: str | Path, deadline: Deadl
 
 #: A scenario with negated twins, kept with the task it was made from (keyed by the new task).
 _WITH_NEGATIONS: TaskTable[Scenario] = TaskTable("the scenario with negated twins")
+#: A shipped scenario without its self-placements, kept with the paper's task it was made from.
+_FOR_PLANS: TaskTable[Scenario] = TaskTable("the shipped scenario without its self-placements")
 
 
 @dataclass(frozen=True)
@@ -116,6 +119,8 @@ class Scenario:
 
     ``parsed`` is the lifted domain and problem the task was grounded from; ``None`` for a scenario
     read from the disk cache, whose :attr:`pddl` reads its files again when first asked.
+    ``left_out`` names the ground actions left out of ``task``: its self-placements
+    (:meth:`without_self_placements`).
     """
 
     name: str
@@ -129,6 +134,7 @@ class Scenario:
     test_set: str | None = None
     load_seconds: float = 0.0
     parsed: Pddl | None = field(default=None, repr=False, compare=False)
+    left_out: tuple[str, ...] = ()
 
     @functools.cached_property
     def pddl(self) -> Pddl:
@@ -190,6 +196,17 @@ class Scenario:
             return self
         return dataclasses.replace(self, task=task)
 
+    def without_self_placements(self, irreflexive: Iterable[str]) -> Scenario:
+        """This scenario without the ground actions that add ``P(x,x)`` for an ``irreflexive``
+        predicate ``P`` (:mod:`hbtp.domains.irreflexive`; ``RightPut(chair,chair)``): the same atoms,
+        s0 and mutexes (proved for the states every action reaches, so they hold where fewer act);
+        this scenario itself when it has none."""
+        task, left_out = without_self_placements(self.task, irreflexive)
+        if task is self.task:
+            return self
+        log.info("%s: %d self-placement(s) left out, such as %s", self.name, len(left_out), left_out[0])
+        return dataclasses.replace(self, task=task, left_out=(*self.left_out, *left_out))
+
     def summary(self) -> dict[str, Any]:
         """The figures ``hbtp scenarios`` prints."""
         return {
@@ -202,6 +219,7 @@ class Scenario:
             "atoms": len(self.task.atoms),
             "mutex_groups": len(self.mutexes.groups),
             "declared_nogoods": len(self.mutexes.nogoods),
+            "left_out": len(self.left_out),
         }
 
 
@@ -223,12 +241,21 @@ def scenario_names() -> tuple[str, ...]:
     return tuple(_manifest())
 
 
-def load_scenario(name: str) -> Scenario:
+def load_scenario(name: str, *, keep_self_placements: bool = False) -> Scenario:
     """Load (parse, ground, infer mutexes) a shipped scenario; cached per process and on disk
-    (see :func:`cache_dir`; the cache is keyed by the data files' content and the hbtp version)."""
+    (see :func:`cache_dir`; the cache is keyed by the data files' content and the hbtp version).
+
+    Its self-placements (actions that add ``P(x,x)`` for a predicate its ``scenarios.toml`` entry
+    declares ``irreflexive``, see :mod:`hbtp.domains.irreflexive`) are left out, unless
+    ``keep_self_placements``: the paper's action space, which the benchmarks reproduce.
+    """
     if name not in _manifest():
         raise InputError(f"unknown scenario {name!r}; choose one of: {', '.join(scenario_names())}")
-    return _load_shipped(name)
+    paper = _load_shipped(name)
+    if keep_self_placements:
+        return paper
+    declared = ScenarioOptions.shipped(name).irreflexive
+    return _FOR_PLANS.of(paper.task, lambda: paper.without_self_placements(declared))
 
 
 def forget_shipped() -> None:
@@ -242,7 +269,12 @@ class ScenarioOptions:
     """How PDDL files become a scenario: its name (default: the problem's), title and description,
     the grounding options (``keep_fluent``, the static categories ``objects`` that form O,
     ``max_ground_actions``: see :func:`hbtp.domains.grounding.ground`), declared mutexes, and the
-    shipped few-shot and test datasets."""
+    shipped few-shot and test datasets.
+
+    ``irreflexive`` names predicates that never hold between an object and itself (``IsOn``,
+    ``IsIn``): the ground actions that add such an atom ``P(x,x)`` are left out of the scenario
+    (:meth:`Scenario.without_self_placements`) unless ``keep_self_placements``, which the paper's
+    benchmarks set to keep the paper's action lists."""
 
     name: str | None = None
     title: str | None = None
@@ -258,9 +290,11 @@ class ScenarioOptions:
     #: translator does). Off for the shipped scenarios: the paper's action lists (RobotHow's 7,329)
     #: include a few unreachable actions (``PlugOut(keyboard)``, ``PlugOut(mouse)``).
     reachable_only: bool = True
+    irreflexive: Sequence[str] = ()
+    keep_self_placements: bool = False
 
     @classmethod
-    def shipped(cls, name: str) -> ScenarioOptions:
+    def shipped(cls, name: str, *, keep_self_placements: bool = False) -> ScenarioOptions:
         """The options of the shipped scenario ``name``, from ``scenarios.toml``."""
         entry = manifest_entry(name)
         mutex = entry.get("mutex", {})
@@ -275,6 +309,8 @@ class ScenarioOptions:
             fewshot=entry.get("fewshot"),
             test_set=entry.get("test"),
             reachable_only=False,
+            irreflexive=entry.get("irreflexive", ()),
+            keep_self_placements=keep_self_placements,
         )
 
 
@@ -306,7 +342,9 @@ def _load_shipped(name: str) -> Scenario:
                     test_set=cached.test_set,
                     load_seconds=time.perf_counter() - started,
                 )
-        scenario = load_pddl_scenario(domain_file, problem_file, ScenarioOptions.shipped(name))
+        scenario = load_pddl_scenario(
+            domain_file, problem_file, ScenarioOptions.shipped(name, keep_self_placements=True)
+        )
         if location is not None:
             cache.write_cached(
                 location,
@@ -369,7 +407,7 @@ def load_pddl_scenario(
         mutexes = infer_mutexes(task, options.mutex_groups, options.mutex_nogoods, deadline)
     elapsed = time.perf_counter() - started
     log.info("loaded %s: %d actions in %.3f s", task.name, len(task.actions), elapsed)
-    return Scenario(
+    scenario = Scenario(
         name=task.name,
         title=options.title or task.name,
         description=options.description,
@@ -382,6 +420,10 @@ def load_pddl_scenario(
         load_seconds=elapsed,
         parsed=parsed,
     )
+    if options.keep_self_placements:
+        checked_irreflexive({**task.static_arities, **task.predicates}, options.irreflexive)
+        return scenario
+    return scenario.without_self_placements(options.irreflexive)
 
 
 def read_mutex_file(path: str | Path) -> Mapping[str, Sequence[Sequence[str]]]:

@@ -160,9 +160,9 @@ def iter_comparisons(
     engine: Engine = "auto",
 ) -> Iterator[dict[str, Any]]:
     """Compare every record of ``dataset_name`` (a shipped dataset or a file; default: the scenario's
-    Table II test set), one row each."""
+    Table II test set), one row each, in the paper's action space (the benchmarks' optima it checks)."""
     require_extra()
-    scenario = load_scenario(scenario_name)
+    scenario = load_scenario(scenario_name, keep_self_placements=True)
     choose_engine(scenario.task, engine)  # an unknown engine fails before any work
     name = dataset_name or scenario.test_set
     if name is None:
