@@ -13,7 +13,7 @@ from hbtp.logic.goals import parse_goal
 from hbtp.planning import plan
 from hbtp.planning.generate import LEVELS, Sampling, generate_records
 from hbtp.train.examples import ExampleKind
-from hbtp.train.goal_examples import foreign_objects, goal_examples, instruction_goal, negatable
+from hbtp.train.goal_examples import foreign_objects, goal_examples, instruction_goal, negatable, unmet_literals
 from hbtp.train.verbalise import words_for
 
 
@@ -24,16 +24,31 @@ def records(virtualhome: Scenario) -> list:
 
 def test_every_instruction_goal_is_solvable_and_not_already_true(virtualhome: Scenario, records: list) -> None:
     rng = random.Random(2)
-    shapes = {"and": 0, "or": 0, "not": 0}
+    shapes = {"one": 0, "and": 0, "or": 0, "not": 0}
     for record in records:
         goal = instruction_goal(virtualhome, record, records, rng)
         terms = parse_goal(goal)
-        shapes["or" if len(terms) > 1 else "not" if any(a.negated for a in terms[0]) else "and"] += 1
+        negated = any(a.negated for a in terms[0])
+        shapes["or" if len(terms) > 1 else "not" if negated else "one" if len(terms[0]) == 1 else "and"] += 1
         extended, resolved = virtualhome.resolve_goal(goal)
         assert not resolved.holds(extended.task.initial_state), goal
         result = plan(extended.task, resolved, "obtea", heuristic="lm", mutexes=extended.mutexes.proved_only())
         assert result.solved, goal
     assert all(count > 0 for count in shapes.values()), shapes
+
+
+def test_one_literal_goals_are_the_labelled_goals_literals_unmet_at_the_start(
+    virtualhome: Scenario, records: list
+) -> None:
+    task = virtualhome.task
+    for record in records:
+        unmet = unmet_literals(virtualhome, record.goal)
+        assert unmet, record.goal  # a labelled goal does not hold at the start
+        for literal in unmet:
+            assert literal in record.goal.split(" & ")
+            assert task.atom_id(literal) not in task.initial_state
+    singles = [e for e in goal_examples(virtualhome, records, seed=1) if e.goal.count("_") and " " not in e.goal]
+    assert len(singles) >= len(records) // 5  # about a third of the instructions ask for one thing
 
 
 def test_a_negation_is_of_an_atom_the_plan_makes_false(virtualhome: Scenario, records: list) -> None:

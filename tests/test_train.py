@@ -228,3 +228,65 @@ def test_a_tiny_training_run_writes_an_adapter_xllamacpp_applies(
     first = out.read_bytes()
     assert main([*argv[:-1]]) == 0
     assert out.read_bytes() == first
+
+
+def _llama_reply(adapter: Path | None, prompt: str, tokens: int) -> list[tuple[int, float]]:
+    """llama.cpp's greedy reply to ``prompt``: each token's id and log-probability."""
+    from hbtp.llm.backends.local import default_model_path, import_xllamacpp, make_params, start_server
+
+    xllamacpp = import_xllamacpp()
+    params = make_params(xllamacpp, default_model_path(), threads=2, context=256)
+    if adapter is not None:
+        params.lora_adapters = [xllamacpp.CommonAdapterLoraInfo(str(adapter), 1.0)]
+    server = start_server(xllamacpp, params, what="the model")
+    body = {"prompt": prompt, "max_tokens": tokens, "temperature": 0, "n_probs": 1, "cache_prompt": False}
+    result = server.handle_completions(body)
+    del server
+    return [(item["id"], item["logprob"]) for item in result["choices"][0]["logprobs"]["content"]]
+
+
+@pytest.mark.extras
+@pytest.mark.skipif(not (HAVE_TRAIN and HAVE_XLLAMACPP), reason="needs the train and local extras")
+def test_llama_cpp_with_the_written_adapter_agrees_with_the_torch_model(tmp_path: Path) -> None:
+    """The adapter file is the trained LoRA: llama.cpp with it gives its greedy reply's tokens the
+    log-probabilities the torch model with the LoRA gives them (the quantized base model costs a
+    little), and far from what the torch model without the LoRA gives them."""
+    import torch
+    from peft import LoraConfig, get_peft_model, set_peft_model_state_dict
+
+    from hbtp.cli import main
+    from hbtp.llm.backends.local import default_model_path
+    from hbtp.train.lora import TARGETS, TrainSettings, load_model
+
+    out, work = tmp_path / "rw.gguf", tmp_path / "work"
+    argv = ["train", "-s", "robowaiter", "-n", "12", "--held-out", "0.2", "--epochs", "4", "--batch", "4",
+            "--learning-rate", "0.005", "-o", str(out), "--work", str(work), "--no-eval"]  # fmt: skip
+    assert main(argv) == 0
+    held = json.loads((work / "examples.json").read_text())["held_out"]
+    prompt = next(e["prompt"] for e in held if e["kind"] == "hints")
+    reply = _llama_reply(out, prompt, 8)
+
+    settings = TrainSettings()
+    tokenizer, model = load_model(default_model_path(), 2)
+    config = LoraConfig(r=settings.rank, lora_alpha=settings.alpha, lora_dropout=0.0, target_modules=list(TARGETS))
+    adapted = get_peft_model(model, config)
+    set_peft_model_state_dict(adapted, torch.load(work / "checkpoint.pt", weights_only=False)["adapter"])
+    adapted.eval()
+    ids = tokenizer(prompt).input_ids + [token for token, _ in reply]
+    start = len(ids) - len(reply)
+
+    def logprobs(net: object) -> list[float]:
+        with torch.no_grad():
+            logits = net(input_ids=torch.tensor([ids])).logits[0].float()  # type: ignore[operator]
+        table = torch.log_softmax(logits, dim=-1)
+        return [float(table[start + i - 1, token]) for i, (token, _) in enumerate(reply)]
+
+    with_lora = logprobs(adapted)
+    with adapted.disable_adapter():
+        without = logprobs(adapted)
+    llama = [value for _, value in reply]
+    agree = max(abs(a - b) for a, b in zip(llama, with_lora, strict=True))
+    apart = max(abs(a - b) for a, b in zip(llama, without, strict=True))
+    assert agree <= 0.35, (llama, with_lora)
+    assert apart >= 3 * agree, (llama, with_lora, without)
+    assert apart >= 0.5, (llama, with_lora, without)

@@ -3,6 +3,8 @@
 The goals are built from the planner's labelled goals (:mod:`hbtp.train.examples`), so every one is
 solvable and none holds at the start:
 
+* *one*: one literal of a labelled goal that does not hold at the start (most instructions people
+  give ask for one thing; labelled goals mostly have two or three literals);
 * *and*: a labelled goal as it is (one literal or several);
 * *or*: two labelled goals as alternatives (``A | B``);
 * *not*: a labelled goal with the negation of an atom its optimal plan makes false
@@ -33,7 +35,7 @@ from hbtp.train.examples import Example, ExampleKind
 from hbtp.train.verbalise import Words, verbalise, words_for
 
 #: The shapes of the instruction goals, with their shares (refusals come on top: :data:`REFUSALS`).
-SHAPES: tuple[tuple[str, float], ...] = (("and", 0.6), ("or", 0.2), ("not", 0.2))
+SHAPES: tuple[tuple[str, float], ...] = (("one", 0.35), ("and", 0.35), ("or", 0.15), ("not", 0.15))
 #: Refusals per instruction example.
 REFUSALS = 0.08
 
@@ -58,9 +60,29 @@ def negatable(scenario: Scenario, record: Record) -> list[Atom]:
     )
 
 
+def unmet_literals(scenario: Scenario, goal: str) -> list[str]:
+    """The literals of a conjunctive ``goal`` that do not hold at the start (each a goal the same
+    plan reaches), in the goal's order; none for a goal with alternatives."""
+    terms = parse_goal(goal)
+    if len(terms) != 1:
+        return []
+    task = scenario.task
+    holding = task.initial_state
+    unmet = []
+    for literal in terms[0]:
+        atom_id = task.atom_ids.get(literal)
+        if atom_id is not None and atom_id not in holding:
+            unmet.append(literal.underscored)
+    return unmet
+
+
 def instruction_goal(scenario: Scenario, record: Record, others: Sequence[Record], rng: random.Random) -> str:
     """A goal of one of the :data:`SHAPES` (drawn by their shares) built on ``record``'s goal."""
     shape = rng.choices([name for name, _ in SHAPES], [share for _, share in SHAPES])[0]
+    if shape == "one":
+        unmet = unmet_literals(scenario, record.goal)
+        if unmet:
+            return rng.choice(unmet)
     if shape == "or" and others:
         other = rng.choice(others)
         if other.goal != record.goal:
@@ -134,4 +156,13 @@ def goal_examples(scenario: Scenario, records: Sequence[Record], seed: int) -> l
     return examples
 
 
-__all__ = ["REFUSALS", "SHAPES", "foreign_objects", "goal_examples", "instruction_goal", "negatable", "refusal_example"]
+__all__ = [
+    "REFUSALS",
+    "SHAPES",
+    "foreign_objects",
+    "goal_examples",
+    "instruction_goal",
+    "negatable",
+    "refusal_example",
+    "unmet_literals",
+]

@@ -69,7 +69,8 @@ class TrainSettings:
 
 @dataclass(frozen=True)
 class TrainReport:
-    """What a run did: steps, examples seen, the loss at the start and at the end, the time."""
+    """What a run did: steps, examples seen, the loss at the start and at the end, and the seconds of
+    training steps (summed over the runs that went on from one checkpoint: the adapter's whole cost)."""
 
     steps: int
     examples: int
@@ -156,6 +157,8 @@ class _Run:
     schedule: Any
     step: int
     losses: list[float]
+    #: Seconds spent in training steps, over every run that went on from this checkpoint.
+    seconds: float = 0.0
 
     def save(self, path: Path, key: str) -> None:
         import torch
@@ -165,6 +168,7 @@ class _Run:
             "key": key,
             "step": self.step,
             "losses": self.losses,
+            "seconds": self.seconds,
             "adapter": get_peft_model_state_dict(self.model),
             "optimizer": self.optimizer.state_dict(),
             "schedule": self.schedule.state_dict(),
@@ -205,6 +209,7 @@ def _resume(run: _Run, checkpoint: Path, key: str) -> None:
     run.optimizer.load_state_dict(state["optimizer"])
     run.schedule.load_state_dict(state["schedule"])
     run.step, run.losses = int(state["step"]), list(state["losses"])
+    run.seconds = float(state.get("seconds", 0.0))
     log.info("resuming from step %d (%s)", run.step, checkpoint)
 
 
@@ -222,7 +227,6 @@ def train(
     ``work`` holds the checkpoint; ``deadline`` (a :func:`time.monotonic` value) stops the run with
     a checkpoint (:class:`TrainingStopped`), as does Ctrl-C; ``progress(steps, start, total)``
     wraps the step counter (a progress bar)."""
-    started = time.monotonic()
     tokenizer, model = load_model(base_model, settings.threads)
     rows = encode(tokenizer, examples)
     plan = _batches(len(rows), settings)
@@ -234,8 +238,10 @@ def train(
     pad = tokenizer.pad_token_id if tokenizer.pad_token_id is not None else 0
     steps: Iterator[int] = iter(range(run.step, len(plan)))
     for step in progress(steps, run.step, len(plan)) if progress is not None else steps:
+        began = time.monotonic()
         try:
             _step(run, [rows[i] for i in plan[step]], pad)
+            run.seconds += time.monotonic() - began
         except KeyboardInterrupt:
             run.save(checkpoint, key)
             raise
@@ -248,7 +254,7 @@ def train(
     run.save(checkpoint, key)
     state = {name: value.detach().cpu().numpy() for name, value in _adapter_state(run.model).items()}
     losses = run.losses or [math.nan]
-    report = TrainReport(len(plan), len(rows), losses[0], losses[-1], time.monotonic() - started, resumed_at)
+    report = TrainReport(len(plan), len(rows), losses[0], losses[-1], run.seconds, resumed_at)
     return state, report
 
 
