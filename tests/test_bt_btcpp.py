@@ -300,7 +300,8 @@ def test_hbtp_run_with_the_btcpp_engine(tmp_path: Path, capsys: pytest.CaptureFi
     replanning = [*argv, "--engine", "btcpp", "--replan", "2"]
     assert main(replanning) in (0, 1)
     assert json.loads(capsys.readouterr().out)["engine"] == "btcpp"
-    assert main([*replanning, "--groot", "1667"]) == 2  # Groot2 watches one tree; re-plans swap trees
+    assert main([*replanning, "--btlog", str(tmp_path / "runs.btlog")]) == 2  # a log of one run only
+    assert "--btlog logs one run: give --runs 1" in capsys.readouterr().err
 
 
 def test_the_btcpp_engine_says_how_to_install_the_binding(monkeypatch: pytest.MonkeyPatch) -> None:

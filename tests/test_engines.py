@@ -22,7 +22,7 @@ from hbtp.errors import InputError
 from hbtp.logic.execution import NodeStatus
 from hbtp.logic.task import Goal
 from hbtp.planning import plan
-from hbtp.runtime import ReplanOptions, run_replanning
+from hbtp.replanning import ReplanOptions, run_replanning
 from helpers import edge_shape_trees
 
 #: Small scenarios' goals: conjunctions, a disjunction ``A | B`` and a negated literal ``~p``

@@ -31,7 +31,7 @@ from hbtp.errors import InputError
 from hbtp.logic.execution import Event, Trace, execute
 from hbtp.logic.task import State
 from hbtp.planning import plan
-from hbtp.runtime import Replanner
+from hbtp.replanning import Replanner
 
 GOAL = "On(Coffee,Bar2)"
 CHROMIUM = find_chromium()

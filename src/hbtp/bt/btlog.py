@@ -5,6 +5,10 @@ length, then the text, every node with its ``_uid``), the time of the first tran
 microseconds), then one 9-byte record per status change: 48 bits of microseconds since that first
 time, the node's 16-bit ``_uid`` and its new status (0 idle, 1 running, 2 success, 3 failure, 4
 skipped). :func:`read_btlog` checks every part and says in one line what is wrong with a file.
+
+A log holds one tree. A run whose re-plans swap trees writes one log per tree
+(:func:`btlog_paths`): the first tree's at the path asked for (``run.btlog``), the tree of the k-th
+re-plan beside it with ``.k`` before the suffix (``run.1.btlog``, ``run.2.btlog``, ...).
 """
 
 from __future__ import annotations
@@ -17,7 +21,7 @@ from pathlib import Path
 from hbtp.errors import InputError
 from hbtp.files import InputKind, read_bytes
 
-__all__ = ["MAGIC", "BtLog", "Transition", "read_btlog"]
+__all__ = ["MAGIC", "BtLog", "Transition", "btlog_paths", "read_btlog"]
 
 MAGIC = b"BTCPP4-FileLogger2"
 _RECORD = 9
@@ -45,6 +49,12 @@ class BtLog:
     def started(self) -> list[str]:
         """The names of the nodes that went RUNNING, in order (control nodes and the actions run)."""
         return [t.name for t in self.transitions if t.status == "running"]
+
+
+def btlog_paths(path: Path, trees: int) -> list[Path]:
+    """Where the logs of a run's ``trees`` trees go: ``path`` for the first, then ``path`` with the
+    number of the re-plan before its suffix (``run.btlog``, ``run.1.btlog``, ``run.2.btlog``)."""
+    return [path, *(path.with_name(f"{path.stem}.{k}{path.suffix}") for k in range(1, trees))]
 
 
 def read_btlog(path: str | Path) -> BtLog:

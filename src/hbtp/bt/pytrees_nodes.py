@@ -54,7 +54,8 @@ class Check(NoPorts, py_trees.behaviour.Behaviour, register=False):
 
 class Act(NoPorts, py_trees.behaviour.Behaviour, register=False):
     """An action ID: FAILURE unless the action's precondition holds; then the action is recorded in
-    the tick's state and the behaviour is RUNNING."""
+    the tick's state and the behaviour is RUNNING. Stopped while RUNNING (py_trees' halt: a parent
+    invalidates it), it records its name in the shared state's ``halted``."""
 
     def __init__(self, name: str, shared: TickState, predicate: str, **kwargs: str) -> None:
         behaviour_class = kwargs.pop("behaviour_class_name", None)
@@ -68,6 +69,10 @@ class Act(NoPorts, py_trees.behaviour.Behaviour, register=False):
             return Status.FAILURE
         shared.action = self.action
         return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        if new_status == Status.INVALID and self.status == Status.RUNNING:
+            self.shared.halted.append(self.shared.task.actions[self.action].name)
 
 
 class AlwaysSuccess(NoPorts, py_trees.behaviour.Behaviour, register=False):

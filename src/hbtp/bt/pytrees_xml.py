@@ -23,7 +23,9 @@ The grounded objects come from the ports ``arg1..argN`` (the ``btcpp`` flavour; 
 constructor as arguments) or, without ports (``btcpp-named``), from the last part of the node's
 name. Both flavours load. :class:`PytreesPolicy` is the tree as a tick policy
 (:data:`hbtp.logic.execution.Policy`) that, like :class:`hbtp.bt.btcpp_engine.BtcppPolicy`,
-applies no effects and stops (halts) the tree before a tick that follows a RUNNING one.
+applies no effects and keeps the tree's statuses between ticks: a RUNNING action ticked again goes
+on, and the parents without memory re-check everything before it and stop (halt) it when another
+branch takes over or the root ends; :meth:`PytreesPolicy.halt` stops the whole tree.
 """
 
 from __future__ import annotations
@@ -59,11 +61,13 @@ def require_py_trees() -> Any:
 
 @dataclass
 class TickState:
-    """What the behaviours of one tree share: the state of the current tick and the action ticked."""
+    """What the behaviours of one tree share: the state of the current tick, the action ticked, and
+    the actions py_trees halted (stopped while RUNNING), by name, in order."""
 
     task: GroundTask
     state: State = field(default=frozenset())
     action: int | None = None
+    halted: list[str] = field(default_factory=list)
 
 
 def node_registry(tick: TickState) -> dict[str, Callable[..., Any]]:
@@ -124,8 +128,6 @@ class PytreesPolicy:
 
     def __call__(self, state: State) -> tuple[NodeStatus, int | None]:
         Status = self.py_trees.common.Status
-        if self.root.status == Status.RUNNING:
-            self.root.stop(Status.INVALID)  # the next tick starts from fresh nodes
         self.tick.state, self.tick.action = state, None
         self.root.tick_once()
         status = self.root.status
@@ -136,3 +138,13 @@ class PytreesPolicy:
         if self.tick.action is None:
             raise HbtpError(f"py_trees' root is {status.value} but no action was ticked")
         return NodeStatus.RUNNING, self.tick.action
+
+    def halt(self) -> None:
+        """Stop the tree: each RUNNING behaviour is stopped (halted), every one INVALID."""
+        if self.root.status != self.py_trees.common.Status.INVALID:
+            self.root.stop(self.py_trees.common.Status.INVALID)
+
+    @property
+    def halted(self) -> list[str]:
+        """The actions py_trees halted while they were RUNNING, by name, in order."""
+        return self.tick.halted

@@ -13,6 +13,7 @@ import dataclasses
 import json
 from collections.abc import Iterable
 
+from hbtp.bt.live import LiveOptions, paced
 from hbtp.bt.nodes import Condition, Node, NodeStatus, tick
 from hbtp.bt.verify import flatten
 from hbtp.logic.execution import (
@@ -55,20 +56,24 @@ def simulate(
     trace: bool = False,
     policy: Policy | None = None,
     observers: Iterable[Observer] = (),
+    live: LiveOptions | None = None,
 ) -> Run:
     """Run ``tree`` from ``state`` (default s0) until SUCCESS, FAILURE or ``max_ticks`` ticks.
 
     ``policy`` may pass a :func:`compile_tree` result to save compiling the tree on every run;
-    ``trace`` records every tick in :attr:`Run.trace`.
+    ``trace`` records every tick in :attr:`Run.trace`; ``live`` gives the ticks each action takes
+    and the tick rate (:class:`hbtp.bt.live.LiveOptions`; default: one tick, as fast as possible).
     """
+    live = live or LiveOptions()
     tracer = Trace(task) if trace else None
     run = execute(
-        policy if policy is not None else compile_tree(tree, task),
+        paced(policy if policy is not None else compile_tree(tree, task), live.rate),
         task,
         state,
         max_ticks=max_ticks,
         disturbance=disturbance,
         observers=(*observers, *((tracer,) if tracer is not None else ())),
+        lifecycle=live.lifecycle(),
     )
     return run if tracer is None else dataclasses.replace(run, trace=tuple(tracer.steps))
 

@@ -3,6 +3,12 @@
 The tree file is hbtp JSON or BehaviorTree.CPP XML (see :mod:`hbtp.cli.tree_input`: the scenario and
 goal recorded in it are used unless ``--scenario``/``--pddl``/``--goal`` are given).
 
+``hbtp run`` ticks as fast as it can unless ``--tick-hz F`` holds a rate; ``--action-ticks N`` makes
+each action RUNNING for N ticks before its effects apply (an action the tree stops ticking before
+then is halted; the halts are counted); with ``--engine btcpp``, ``--groot PORT`` publishes every
+tree of the run to Groot2 (``--groot-wait S``: S seconds for Groot2 to connect before the first tick)
+and ``--btlog FILE`` logs every tree (:func:`hbtp.bt.btlog.btlog_paths`), re-plans included.
+
 Exit codes (also when the commands are invoked on their own, as click commands): 0 the goal was
 reached (every run, with ``--runs``) / the verifier proved that the tree reaches the goal from the
 initial state; 1 it was not / it did not; 2 bad input (a file that is not a tree, an unknown node
@@ -13,6 +19,7 @@ from __future__ import annotations
 
 import functools
 import logging
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,9 +28,11 @@ from typing import Any, TypeVar
 import click
 
 from hbtp.bt.btcpp_engine import BtcppEngine, Watch
+from hbtp.bt.btlog import btlog_paths
 from hbtp.bt.disturb import check_probability, seeded_disturbances, summarise_runs
 from hbtp.bt.engines import Engine
 from hbtp.bt.jsonio import goal_text
+from hbtp.bt.live import LiveOptions
 from hbtp.bt.simulate import DEFAULT_MAX_TICKS, Run, simulate, trace_to_jsonl
 from hbtp.bt.verify import verify
 from hbtp.cli.exit_codes import CommandError, ExitCode, command_error
@@ -33,7 +42,8 @@ from hbtp.errors import HbtpError, InputError
 from hbtp.files import write_all_atomically
 from hbtp.logic.execution import Disturbance
 from hbtp.logic.task import GoalIds, GroundTask
-from hbtp.runtime import ReplanningRun, ReplanOptions, replanning_runs, replanning_summary, replanning_trace_jsonl
+from hbtp.pacing import MAX_TICK_HZ, TickRate
+from hbtp.replanning import ReplanningRun, ReplanOptions, replanning_summary, replanning_trace_jsonl, run_replanning
 
 log = logging.getLogger(__name__)
 
@@ -97,7 +107,8 @@ def _describe_run(run: Run, reached: bool) -> str:
     outcome = (
         "goal reached" if reached else ("tick limit" if run.hit_limit else f"{run.status.value}, goal not reached")
     )
-    return f"{outcome}: {run.ticks} tick(s), cost {run.cost}, {len(run.executed)} action(s)"
+    halts = f", {run.halts} halt(s)" if run.halts else ""
+    return f"{outcome}: {run.ticks} tick(s), cost {run.cost}, {len(run.executed)} action(s){halts}"
 
 
 def _number(value: Any, sign: bool = False) -> str:
@@ -116,10 +127,40 @@ class RunRequest:
     max_ticks: int
     replan: int
     engine: Engine
+    action_ticks: int
+    tick_hz: TickRate | None
     groot: int | None
+    groot_wait: float
     btlog: str | None
     trace_file: str | None
     as_json: bool
+
+    @property
+    def live(self) -> LiveOptions:
+        return LiveOptions(self.action_ticks, self.tick_hz)
+
+    def watch(self, *, log: bool = True, first: bool = True) -> Watch | None:
+        """Who watches a BT.CPP run (``log``: this run writes --btlog; ``first``: the command's first
+        run, the one that waits for Groot2), ``None`` when nobody does."""
+        btlog = Path(self.btlog) if log and self.btlog else None
+        if self.groot is None and btlog is None:
+            return None
+        return Watch(self.groot, btlog, self.groot_wait if first else 0.0)
+
+
+def _tick_rate(_context: click.Context, _parameter: click.Parameter, value: float | None) -> TickRate | None:
+    if value is None:
+        return None
+    try:
+        return TickRate(value)
+    except InputError as error:
+        raise click.BadParameter(str(error)) from None
+
+
+def _groot_wait(_context: click.Context, _parameter: click.Parameter, value: float) -> float:
+    if not (0 <= value < math.inf):  # also nan
+        raise click.BadParameter(f"must be a finite number of seconds >= 0, not {value}")
+    return value
 
 
 run_options = option_group(
@@ -152,13 +193,38 @@ run_options = option_group(
         "exported with --format btcpp-named); hbtp's executor applies the actions and the disturbances.",
     ),
     click.option(
+        "--action-ticks",
+        type=click.IntRange(1),
+        default=1,
+        show_default=True,
+        help="Ticks each action runs before its effects apply; an action the tree stops ticking before then "
+        "is halted (and has no effect).",
+    ),
+    click.option(
+        "--tick-hz",
+        type=float,
+        callback=_tick_rate,
+        help=f"Tick at most this many times a second (0 < F <= {MAX_TICK_HZ:g}), sleeping between ticks "
+        "(default: as fast as possible).",
+    ),
+    click.option(
         "--groot",
         type=click.IntRange(1, 65535),
-        help="With --engine btcpp: publish the running tree to Groot2 on this port (Groot2's default: 1667).",
+        help="With --engine btcpp: publish the running tree (each tree, with --replan) to Groot2 on this port "
+        "(Groot2's default: 1667; it also uses the next port).",
+    ),
+    click.option(
+        "--groot-wait",
+        type=float,
+        default=0.0,
+        callback=_groot_wait,
+        help="With --groot: seconds to wait for Groot2 to connect before the first tick (the whole time: "
+        "BT.CPP's binding cannot tell when a client connects).",
     ),
     output_option(
         "--btlog",
-        help="With --engine btcpp (one run): write BehaviorTree.CPP's FileLogger2 log, which Groot2 replays.",
+        help="With --engine btcpp (one run): write BehaviorTree.CPP's FileLogger2 log, which Groot2 replays "
+        "(with --replan, each later tree to FILE with .1, .2, ... before its suffix).",
     ),
     output_option("--trace", "trace_file", help="Write a tick-by-tick JSONL trace."),
     click.option("--json", "as_json", is_flag=True, help="Print the result as JSON."),
@@ -182,9 +248,9 @@ def run_command(tree_file: str, source: ScenarioSource, goal_option: str | None,
     watched = request.groot is not None or request.btlog
     if watched and request.engine is not Engine.BTCPP:
         raise InputError("--groot and --btlog watch BehaviorTree.CPP: give --engine btcpp")
-    if watched and request.replan:
-        raise InputError("--groot and --btlog watch one tree: they do not go with --replan")
-    if request.btlog and request.perturb > 0 and request.runs > 1:
+    if request.groot_wait and request.groot is None:
+        raise InputError("--groot-wait waits for Groot2: give --groot PORT")
+    if request.btlog and (request.perturb > 0 or request.replan) and request.runs > 1:
         raise InputError("--btlog logs one run: give --runs 1")
     request.engine.require()
     if request.replan:
@@ -199,19 +265,26 @@ Runner = Callable[[Disturbance | None, bool, bool], Run]
 def _runner(read: TreeInput, request: RunRequest) -> Runner:
     """Runs of the tree ticked by ``--engine`` in hbtp's executor (with BT.CPP: watched by --groot,
     logged by --btlog)."""
-    task, max_ticks = read.scenario.task, request.max_ticks
+    task, max_ticks, live = read.scenario.task, request.max_ticks, request.live
     if request.engine is Engine.BTCPP:
         engine = BtcppEngine(read.tree, task)
+        started: list[bool] = []
 
         def btcpp(disturbance: Disturbance | None, trace: bool, log: bool) -> Run:
-            watch = Watch(request.groot, Path(request.btlog) if log and request.btlog else None)
-            return engine.run(max_ticks=max_ticks, disturbance=disturbance, watch=watch, trace=trace)
+            watch = request.watch(log=log, first=not started)
+            started.append(True)
+            return engine.run(max_ticks=max_ticks, disturbance=disturbance, watch=watch, trace=trace, live=live)
 
         return btcpp
     policy = request.engine.policy(read.tree, task)
 
     def run(disturbance: Disturbance | None, trace: bool, log: bool) -> Run:
-        return simulate(read.tree, task, max_ticks=max_ticks, disturbance=disturbance, trace=trace, policy=policy)
+        try:
+            return simulate(
+                read.tree, task, max_ticks=max_ticks, disturbance=disturbance, trace=trace, policy=policy, live=live
+            )
+        finally:
+            policy.halt()  # the run ends (also on Ctrl-C): an action still running is halted
 
     return run
 
@@ -240,7 +313,7 @@ def _run_tree(read: TreeInput, tree_file: str, request: RunRequest) -> int:
         return EXIT_OK if reached else EXIT_FAILED
     disturbances = seeded_disturbances(task, read.scenario.mutexes, perturb, request.runs, request.seed)
     results = [run(disturbance, trace_file is not None, True) for disturbance in disturbances]
-    stats = summarise_runs(base, results, goal_ids)
+    stats = {**summarise_runs(base, results, goal_ids), "halts": sum(r.halts for r in results)}
     _write_traces(trace_file, results, task, numbered=True)
     if request.as_json:
         rows = [{"reached": r.reached(goal_ids), **r.to_dict(task)} for r in results]
@@ -260,13 +333,22 @@ def _run_replanning(read: TreeInput, tree_file: str, request: RunRequest) -> int
     if read.goal is None:
         raise InputError("--replan needs a goal to plan for: give -g, or a tree file that records one")
     task, goal = read.scenario.task, read.goal
-    base = simulate(read.tree, task, max_ticks=max_ticks, policy=engine.policy(read.tree, task))
+    undisturbed = engine.policy(read.tree, task)
+    try:  # the yardstick of the runs' extra ticks: as many ticks per action, not paced
+        base = simulate(
+            read.tree, task, max_ticks=max_ticks, policy=undisturbed, live=LiveOptions(request.action_ticks)
+        )
+    finally:
+        undisturbed.halt()
     options = ReplanOptions(max_replans=replan, engine=engine)
-    results = replanning_runs(
-        read.scenario, goal, read.tree, perturb, runs, seed, max_ticks=max_ticks, options=options,
-        trace=trace_file is not None,
-    )  # fmt: skip
-    stats = replanning_summary(base, results, goal)
+    results = [
+        run_replanning(
+            read.scenario, goal, read.tree, max_ticks=max_ticks, disturbance=disturbance, options=options,
+            trace=trace_file is not None, live=request.live, watch=request.watch(first=index == 0),
+        )
+        for index, disturbance in enumerate(seeded_disturbances(task, read.scenario.mutexes, perturb, runs, seed))
+    ]  # fmt: skip
+    stats = {**replanning_summary(base, results, goal), "halts": sum(r.run.halts for r in results)}
     if trace_file:
         text = "".join(replanning_trace_jsonl(r, task, run_index=i) for i, r in enumerate(results))
         write_all_atomically({Path(trace_file): text})
@@ -304,7 +386,10 @@ def _echo_replanning_json(
         "goal": goal_text(goal),
         "engine": request.engine.value,
     }
-    settings = {"p": request.perturb, "seed": request.seed, "replan": request.replan}
+    settings: dict[str, Any] = {"p": request.perturb, "seed": request.seed, "replan": request.replan}
+    if request.btlog:  # one run (checked): the log of each tree it ticked
+        trees = 1 + sum(r.tree is not None for r in results[0].replans)
+        settings["btlog"] = [str(path) for path in btlog_paths(Path(request.btlog), trees)]
     echo_json({**header, **settings, "reached": stats["successes"] == len(results), **stats, "results": rows})
 
 
@@ -331,6 +416,7 @@ def _echo_disturbed(stats: dict[str, Any], base_reached: bool, base: Run, pertur
     click.echo(
         f"{stats['successes']}/{stats['runs']} perturbed run(s) reached the goal (p={perturb}, seed {seed}); "
         f"{_number(stats['mean_events'])} event(s) per run"
+        + (f", {stats['halts']} halt(s) in all" if stats["halts"] else "")
     )
     click.echo(
         f"successful runs: mean ticks {_number(stats['mean_ticks'])} ({_number(stats['mean_extra_ticks'], True)}), "

@@ -13,6 +13,12 @@ follows. The run ends when a tick returns SUCCESS or FAILURE, or after ``max_tic
 RUNNING). *Observers* see every tick (:class:`Tick`): :class:`Trace` records them; a runtime that
 ticks from observed states uses the same hooks.
 
+An action may take several ticks (``ActionLifecycle(action_ticks=n)``, see
+:mod:`hbtp.logic.lifecycle`): it is RUNNING for ``n`` ticks in a row and its effects are applied
+after the last; an action the tree stops ticking before then is halted and has no effect, and
+:attr:`Run.halts` counts the halts. With one tick per action (the default) every action finishes in
+the tick that runs it, and no action is ever halted.
+
 Counting: ``ticks`` counts every tick, the last one included, so an undisturbed run that executes
 ``n`` actions and then succeeds takes ``n + 1`` ticks. ``cost`` is the sum of the executed actions'
 costs (the paper's D(T) for a run from s0).
@@ -31,6 +37,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 from hbtp.errors import InputError
+from hbtp.logic.lifecycle import ActionLifecycle
 from hbtp.logic.task import GoalIds, GroundAction, GroundTask, State, disjuncts_of
 
 log = logging.getLogger(__name__)
@@ -157,8 +164,9 @@ class Run:
     """The outcome of :func:`execute`.
 
     ``status`` is the last tick's status: SUCCESS or FAILURE when the run ended by itself, RUNNING
-    when it hit the tick limit. ``events`` counts the disturbances applied; ``trace`` is filled
-    only when asked for (:class:`Trace`).
+    when it hit the tick limit. ``events`` counts the disturbances applied, ``halts`` the actions
+    halted while RUNNING (only actions that take several ticks can be); ``trace`` is filled only
+    when asked for (:class:`Trace`).
     """
 
     status: NodeStatus
@@ -168,6 +176,7 @@ class Run:
     final_state: State
     events: int = 0
     trace: tuple[TraceStep, ...] = ()
+    halts: int = 0
 
     @property
     def succeeded(self) -> bool:
@@ -188,6 +197,7 @@ class Run:
             "ticks": self.ticks,
             "cost": self.cost,
             "events": self.events,
+            "halts": self.halts,
             "executed": [task.actions[i].name for i in self.executed],
             "final_state": task.names(self.final_state),
         }
@@ -215,12 +225,15 @@ def execute(
     max_ticks: int,
     disturbance: Disturbance | None = None,
     observers: Iterable[Observer] = (),
+    lifecycle: ActionLifecycle | None = None,
 ) -> Run:
-    """Run ``policy`` from ``state`` (default s0) until SUCCESS, FAILURE or ``max_ticks`` ticks."""
+    """Run ``policy`` from ``state`` (default s0) until SUCCESS, FAILURE or ``max_ticks`` ticks;
+    ``lifecycle`` says how many ticks an action takes (one by default) and counts the halts."""
     if max_ticks < 1:
         raise InputError(f"max_ticks must be at least 1, not {max_ticks}")
     watchers = tuple(observers)
     actions = task.actions
+    life = lifecycle if lifecycle is not None else ActionLifecycle()
     current = task.initial_state if state is None else frozenset(state)
     executed: list[int] = []
     cost = events = ticks = 0
@@ -239,9 +252,13 @@ def execute(
             seen = Tick(ticks, current, status, running, event)
             for observer in watchers:
                 observer(seen)
+        life.step(running if status is NodeStatus.RUNNING else None)
         if status is not NodeStatus.RUNNING:
             break
         assert running is not None, "a RUNNING tick names its action"
+        if not life.done:
+            continue
+        life.finish()
         action = actions[running]
         before_last = current
         current = action.progress(current)
@@ -249,8 +266,9 @@ def execute(
         executed.append(running)
         cost += action.cost
     else:
+        life.halt()  # the tick limit: an action still running is halted
         log.debug("execute: tick limit %d reached", max_ticks)
-    return Run(status, tuple(executed), cost, ticks, current, events)
+    return Run(status, tuple(executed), cost, ticks, current, events, halts=life.halts)
 
 
 __all__ = [
