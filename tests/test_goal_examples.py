@@ -12,7 +12,7 @@ from hbtp.llm.goal_prompt import refusal_of, taught_goal_prompt
 from hbtp.logic.goals import parse_goal
 from hbtp.planning import plan
 from hbtp.planning.generate import LEVELS, Sampling, generate_records
-from hbtp.train.examples import ExampleKind
+from hbtp.train.examples import ExampleKind, check_disjoint, goal_key, held_goals
 from hbtp.train.goal_examples import foreign_objects, goal_examples, instruction_goal, negatable, unmet_literals
 from hbtp.train.verbalise import words_for
 
@@ -79,3 +79,15 @@ def test_refusals_name_only_what_the_world_lacks(virtualhome: Scenario, records:
             example.prompt.removeprefix("Instruction: ").removesuffix("\nGoals:")
         )
     assert goal_examples(virtualhome, records, seed=1) == goal_examples(virtualhome, records, seed=1)
+
+
+def test_no_instruction_goal_is_an_evaluation_goal(virtualhome: Scenario) -> None:
+    """One literal of a labelled goal, or a negation, can be a goal of an evaluation set (the
+    instruction dataset asks for single literals): such a draw falls back to the labelled goal."""
+    held = held_goals(virtualhome)
+    drawn = generate_records(virtualhome.task, LEVELS["any"], 300, Sampling(seed=9), virtualhome.mutexes)
+    many = [record for record in drawn if goal_key(record.goal) not in held]  # as hbtp train samples them
+    singles = {literal for record in many for literal in unmet_literals(virtualhome, record.goal)}
+    assert any(goal_key(literal) in held for literal in singles)  # the draw can hit one
+    examples = goal_examples(virtualhome, many, seed=5)
+    check_disjoint(examples, held, virtualhome.name)

@@ -31,7 +31,7 @@ from hbtp.llm.goal_prompt import refusal_reply, taught_goal_prompt, taught_goal_
 from hbtp.logic.atoms import Atom, parse_atom
 from hbtp.logic.execution import apply_actions
 from hbtp.logic.goals import format_goal, parse_goal
-from hbtp.train.examples import Example, ExampleKind
+from hbtp.train.examples import Example, ExampleKind, goal_key, held_goals
 from hbtp.train.verbalise import Words, verbalise, words_for
 
 #: The shapes of the instruction goals, with their shares (refusals come on top: :data:`REFUSALS`).
@@ -138,14 +138,18 @@ def refusal_example(
 
 
 def goal_examples(scenario: Scenario, records: Sequence[Record], seed: int) -> list[Example]:
-    """One instruction example per record (a goal of a drawn shape, said in words), and refusals
-    for about :data:`REFUSALS` of them; the same for the same seed."""
+    """One instruction example per record (a goal of a drawn shape, said in words, never one of an
+    evaluation set: then the record's own goal), and refusals for about :data:`REFUSALS` of them;
+    the same for the same seed."""
     rng = random.Random(f"goal-examples|{seed}")
     words = words_for(scenario)
     foreign = foreign_objects(scenario, words)
     examples: list[Example] = []
+    held = held_goals(scenario)
     for record in records:
         goal = instruction_goal(scenario, record, records, rng)
+        if goal_key(goal) in held:  # a part of a labelled goal can be an evaluation goal: never taught
+            goal = record.goal
         said = verbalise(goal, words, rng, 1)
         if said:
             examples.append(Example(ExampleKind.GOAL, goal, taught_goal_prompt(said[0]), taught_goal_reply(goal)))
