@@ -15,6 +15,7 @@ from hbtp.errors import InputError
 from hbtp.train.lora import TrainSettings
 
 if TYPE_CHECKING:
+    from hbtp.train.evaluate import HeldOutScore
     from hbtp.train.run import TrainOutcome
 
 
@@ -83,6 +84,11 @@ settings_options = option_group(
     show_default=True,
     help="Teach instructions -> goals too (goals said in words by the verbaliser), beside goals -> hints.",
 )
+@click.option(
+    "--baseline",
+    is_flag=True,
+    help="Judge the base model too (few-shot, as --llm local without an adapter) on the same held-back goals.",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print the outcome as JSON.")
 def train_command(
     source: ScenarioSource,
@@ -94,6 +100,7 @@ def train_command(
     time_limit: float | None,
     no_eval: bool,
     instructions: bool,
+    baseline: bool,
     as_json: bool,
 ) -> int:
     """Teach the local model (Gemma-3 270M) a scenario or your PDDL world: goals sampled and labelled
@@ -108,7 +115,7 @@ def train_command(
     where: dict[str, object] = {"scenario": source.scenario} if source.scenario else {"pddl": list(source.pddl or ())}
     request = TrainRequest(
         loaded, where, count, held_out, settings, Path(out_file) if out_file else None,
-        Path(work) if work else None, time_limit, not no_eval, instructions, _command_line(),
+        Path(work) if work else None, time_limit, not no_eval, instructions, _command_line(), baseline,
     )  # fmt: skip
     outcome = run_training(request, cache_folder().parent / "train", None if as_json else _progress)
     if as_json:
@@ -130,17 +137,21 @@ def _show(outcome: TrainOutcome) -> None:
         f"{facts['steps']} steps, loss {facts['first_loss']:.3f} -> {facts['last_loss']:.3f}, "
         f"{facts['training_s']:.0f} s of training"
     )
-    score = outcome.score
-    if score is not None:
+    for name, score in (("", outcome.score), ("the base model: ", outcome.base_score)):
+        if score is not None:
+            _show_score(name, score)
+
+
+def _show_score(name: str, score: HeldOutScore) -> None:
+    click.echo(
+        f"{name}held back {score.examples} goals: NF {score.nf:.0%}, exact plan {score.exact:.0%}, "
+        f"predicates and objects covered {score.covered:.0%}, median {score.median_seconds:.2f} s per answer"
+    )
+    if score.instructions:
         click.echo(
-            f"held back {score.examples} goals: NF {score.nf:.0%}, exact plan {score.exact:.0%}, "
-            f"predicates and objects covered {score.covered:.0%}, median {score.median_seconds:.2f} s per answer"
+            f"{name}held back {score.instructions} instructions: goal exact {score.instruction_exact:.0%} "
+            f"(refusals among them: {score.refusals}, refused {score.refused:.0%})"
         )
-        if score.instructions:
-            click.echo(
-                f"held back {score.instructions} instructions: goal exact {score.instruction_exact:.0%} "
-                f"(refusals among them: {score.refusals}, refused {score.refused:.0%})"
-            )
 
 
 __all__ = ["train_command"]

@@ -31,6 +31,7 @@ from hbtp.llm.backend import PromptStyle
 from hbtp.llm.backends.local import LocalBackend
 from hbtp.llm.goal_prompt import goal_reply, goal_request, refusal_of
 from hbtp.llm.parse import parse_reply
+from hbtp.llm.pool import example_pool
 from hbtp.llm.prompt import PromptOptions, build_request
 from hbtp.llm.vocabulary import as_names
 from hbtp.logic.names import ActionNames
@@ -81,7 +82,11 @@ def evaluate(scenario: Scenario, adapter: Path | None, examples: Sequence[Exampl
     """Ask every example of the local model (with ``adapter``) as ``--llm local`` would, and judge the answers."""
     backend = LocalBackend(adapter=adapter, threads=threads)
     names = as_names(scenario.task)
-    options = PromptOptions(style=PromptStyle.COMPLETION, taught=adapter is not None)
+    taught = adapter is not None
+    # the base model is asked as --llm local asks it: with demonstrations from the world's pool
+    # (never one of the very goal asked)
+    pool = [] if taught else example_pool(scenario)
+    options = PromptOptions(style=PromptStyle.COMPLETION, taught=taught, exclude_same_goal=True)
     exact = covered = solved = read = refused = 0
     seconds: list[float] = []
     hints_examples = [e for e in examples if e.kind is ExampleKind.HINTS]
@@ -89,7 +94,7 @@ def evaluate(scenario: Scenario, adapter: Path | None, examples: Sequence[Exampl
     refusals = [e for e in goal_examples if refusal_of(e.reply) is not None]
     try:
         for example in hints_examples:
-            reply = backend.complete(build_request(names, example.goal, [], options))
+            reply = backend.complete(build_request(names, example.goal, pool, options))
             seconds.append(reply.seconds)
             hints, label = _answer(names, reply.text), _answer(names, example.reply)
             exact += hints.path == label.path
@@ -101,7 +106,7 @@ def evaluate(scenario: Scenario, adapter: Path | None, examples: Sequence[Exampl
             solved += result.solved
         for example in goal_examples:
             instruction = example.prompt.removeprefix("Instruction: ").removesuffix("\nGoals:")
-            reply = backend.complete(goal_request(scenario.task, instruction, [], taught=adapter is not None))
+            reply = backend.complete(goal_request(scenario.task, instruction, [], taught=taught))
             seconds.append(reply.seconds)
             answer = goal_reply(reply.text)
             if refusal_of(example.reply) is not None:

@@ -57,6 +57,9 @@ class TrainRequest:
     instructions: bool = True
     #: The command line that asked for this run (kept in the report beside the adapter).
     command: str = ""
+    #: Judge the base model too (as ``--llm local`` asks it without an adapter: demonstrations from
+    #: the world's pool) on the same held-back examples: the before of the adapter's after.
+    baseline: bool = False
 
 
 @dataclass(frozen=True)
@@ -70,6 +73,7 @@ class TrainOutcome:
     report: TrainReport
     score: HeldOutScore | None
     seconds: float
+    base_score: HeldOutScore | None = None
 
     def to_dict(self) -> dict[str, Any]:
         kinds = Counter(e.kind.value for e in self.examples.train)
@@ -90,6 +94,7 @@ class TrainOutcome:
             "training_s": round(self.report.seconds, 1),
             "resumed_at_step": self.report.resumed_at,
             "held_out": None if self.score is None else self.score.to_dict(),
+            "held_out_base_model": None if self.base_score is None else self.base_score.to_dict(),
             "total_s": round(self.seconds, 1),
         }
 
@@ -174,7 +179,8 @@ def run_training(
     }
     size = write_adapter(state, request.settings.alpha, base, out, facts)
     score = evaluate_in_child(request.source, out, examples.held_out, work) if request.evaluate else None
-    outcome = TrainOutcome(request, out, size, examples, report, score, time.monotonic() - started)
+    base_score = evaluate_in_child(request.source, None, examples.held_out, work) if request.baseline else None
+    outcome = TrainOutcome(request, out, size, examples, report, score, time.monotonic() - started, base_score)
     write_atomically(out.with_suffix(".json"), json.dumps(outcome.to_dict(), indent=1, sort_keys=True) + "\n")
     return outcome
 
