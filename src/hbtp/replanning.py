@@ -20,6 +20,12 @@ and an optional disturbance changes the state before ticks; the robustness bench
 
 Re-planning from a state uses the proved mutexes only when the state satisfies them (a state that
 breaks an invariant, which no action can cause, is planned from without mutex pruning).
+
+A re-plan is a *repair* by default (:attr:`ReplanOptions.repair`): the first re-plan's search is kept
+(:class:`hbtp.planning.repair.RepairableSearch`) and each later re-plan continues it from the new
+state, with the same optimal cost as a search from scratch. A state that breaks a proved mutex, left
+out actions, or a planner whose searches cannot be continued (:func:`~hbtp.planning.repair.repairable`)
+search from scratch.
 """
 
 from __future__ import annotations
@@ -49,12 +55,15 @@ from hbtp.logic.task import Goal, GoalIds, GroundAction, GroundTask, State
 from hbtp.planning.heuristics import DEFAULT_HEURISTIC, HeuristicName
 from hbtp.planning.limits import Limits
 from hbtp.planning.planners import confirmed_search, planner_config
+from hbtp.planning.repair import RepairableSearch, repairable
 from hbtp.planning.result import PlanResult, Status
+from hbtp.planning.search_state import SearchConfig
 
 log = logging.getLogger(__name__)
 
 __all__ = [
     "UNSOLVABLE_FROM_STATE",
+    "KeptSearch",
     "Replan",
     "ReplanOptions",
     "Replanner",
@@ -75,6 +84,23 @@ UNSOLVABLE_FROM_STATE = "no tree reaches the goal from the observed state"
 SwapHook = Callable[[TreePolicy], object]
 
 
+class KeptSearch:
+    """The search that re-plans continue (:class:`hbtp.planning.repair.RepairableSearch`), held for one
+    goal and planner; Replanners given the same one share it (the runs of a benchmark task, the episodes
+    of a robot with the same goal), so each continues what the others explored. Memory: at most
+    :data:`hbtp.planning.repair.MAX_CONDITIONS` conditions, then it is dropped and started anew."""
+
+    def __init__(self) -> None:
+        self.search: RepairableSearch | None = None
+
+    def take(self, goal: Goal, config: SearchConfig) -> RepairableSearch | None:
+        """The kept search if it is one for ``goal`` and ``config`` (else it is dropped)."""
+        search = self.search
+        if search is not None and (search.goal.disjuncts != goal.disjuncts or search.config != config):
+            self.search = search = None
+        return search
+
+
 @dataclass(frozen=True)
 class ReplanOptions:
     """How to re-plan: the planner and heuristic, the kind of tree, the bounds of one run, and the
@@ -87,6 +113,12 @@ class ReplanOptions:
     heuristic: HeuristicName = DEFAULT_HEURISTIC
     tree: str = "full"
     engine: Engine = Engine.HBTP
+    #: Continue the last re-plan's search from the new state (:mod:`hbtp.planning.repair`: the same
+    #: optimal cost, less work); ``False`` searches from scratch each time (for comparison).
+    repair: bool = True
+    #: The search re-plans continue, shared by the runs given these options (``None``: each
+    #: :class:`Replanner` keeps its own; :func:`replanning_runs` gives its runs one).
+    kept: KeptSearch | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.engine, Engine):
@@ -157,6 +189,8 @@ class Replanner:
         self.spent = 0.0
         self.ticks = 0
         self.excluded: set[int] = set()
+        #: The search the next re-plan continues (its ``search`` is ``None`` until a re-plan starts one).
+        self.kept = options.kept if options.kept is not None else KeptSearch()
         #: Why the policy stopped re-planning (``None`` while it may still re-plan).
         self.gave_up: str | None = None
         #: Whether it stopped because a re-plan proved the goal unreachable from the state.
@@ -222,7 +256,19 @@ class Replanner:
             actions = [a for a in world.actions if a.index not in self.excluded]
         mutexes = self.mutexes if self.mutexes.conflict(frozenset(state)) is None else None
         config = planner_config(self.options.planner, heuristic=self.options.heuristic)
-        return confirmed_search(world, goal, actions, config, mutexes=mutexes, limits=Limits(time_s=seconds))
+        limits = Limits(time_s=seconds)
+        if not self.options.repair or self.excluded or mutexes is None or not repairable(config):
+            return confirmed_search(world, goal, actions, config, mutexes=mutexes, limits=limits)
+        search = self.kept.take(goal, config)
+        if search is None:
+            search, result = RepairableSearch.start(world, goal, actions, config, mutexes=mutexes, limits=limits)
+        else:
+            result = search.repair(world, goal, limits)
+        self.kept.search = search
+        if search is not None and search.spent:
+            log.info("the kept search holds %d conditions: dropped, the next re-plan starts anew", len(search.nodes))
+            self.kept.search = None
+        return result
 
     def _give_up(self, reason: str) -> bool:
         self.gave_up = reason  # reported by the caller (the run's result, the command's output)
@@ -329,7 +375,10 @@ def replanning_runs(
     live: LiveOptions | None = None,
 ) -> list[ReplanningRun]:
     """``runs`` runs with re-planning under the seeded disturbances of
-    :func:`hbtp.bt.disturb.disturbed_runs` (run ``i`` meets the same random numbers as there)."""
+    :func:`hbtp.bt.disturb.disturbed_runs` (run ``i`` meets the same random numbers as there). The runs
+    share one :class:`KeptSearch`: a re-plan continues the search of the runs before it."""
+    if options.kept is None:
+        options = dataclasses.replace(options, kept=KeptSearch())
     return [
         run_replanning(
             scenario, goal, tree, max_ticks=max_ticks, disturbance=disturbance, options=options, trace=trace, live=live
@@ -351,11 +400,18 @@ def replanning_summary(base: Run, results: Sequence[ReplanningRun], goal: Goal) 
         median_replan_ms=round(1000 * statistics.median(times), 3) if times else None,
         max_replan_ms=round(1000 * max(times), 3) if times else None,
         unsolvable_runs=len(unsolvable),
+        budget_runs=sum(_hit_budget(r) for r in results),
         success_rate_reachable=(
             round(sum(r.reached(goal) for r in reachable) / len(reachable), 6) if reachable else None
         ),
     )
     return stats
+
+
+def _hit_budget(result: ReplanningRun) -> bool:
+    """Whether a run's re-planning ran out of time (a re-plan's time limit or the run's budget)."""
+    timed_out = any(r.status == Status.TIMEOUT.value for r in result.replans)
+    return timed_out or (result.gave_up is not None and "budget" in result.gave_up)
 
 
 def replanning_stats(

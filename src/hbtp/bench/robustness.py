@@ -36,7 +36,7 @@ from hbtp.logic.task import Goal
 from hbtp.planning import PLANNERS, Limits, PlanResult, plan
 from hbtp.planning.heuristics import HEURISTICS, HeuristicName
 from hbtp.planning.planners import Space
-from hbtp.runtime import replanning_stats
+from hbtp.runtime import ReplanOptions, replanning_stats
 
 log = logging.getLogger(__name__)
 
@@ -120,6 +120,8 @@ class RobustnessConfig:
     #: Also run each tree with re-planning (OBTEA with the landmark heuristic from the state the tree
     #: fails in): the ``full+replan`` and ``path+replan`` rows.
     replan: bool = False
+    #: Re-plans continue the last re-plan's search (:mod:`hbtp.planning.repair`); ``False``: from scratch.
+    repair: bool = True
 
     @property
     def trees(self) -> tuple[str, ...]:
@@ -152,6 +154,7 @@ class RobustnessConfig:
             "heuristic": self.heuristic,
             "robust": self.robust,
             "trees": list(self.trees),
+            "repair": self.repair,
         }
 
 
@@ -287,7 +290,8 @@ def _stats(
     scenario: Scenario, goal: Goal, kind: str, tree: Node, p: float, seed: int, config: RobustnessConfig
 ) -> dict[str, Any]:
     if kind in REPLANNED:
-        return replanning_stats(scenario, goal, tree, p, config.runs, seed, config.max_ticks)
+        options = ReplanOptions(repair=config.repair)
+        return replanning_stats(scenario, goal, tree, p, config.runs, seed, config.max_ticks, options)
     return perturbation_stats(tree, scenario.task, goal, scenario.mutexes, p, config.runs, seed, config.max_ticks)
 
 
@@ -347,6 +351,8 @@ def _replanning(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "reachable_runs": runs - unsolvable,
         "reachable_runs_succeeded": sum(r["successes"] for r in rows if r.get("unsolvable_runs") is not None),
         "unsolvable_runs": unsolvable,
+        "budget_runs": sum(r.get("budget_runs") or 0 for r in rows),
+        "median_plan_ms": median([1000 * r["plan_time_s"] for r in rows if r.get("plan_time_s") is not None]),
         "mean_replans": mean([r["mean_replans"] for r in rows if r.get("mean_replans") is not None]),
         "median_replan_ms": median([r["median_replan_ms"] for r in rows if r.get("median_replan_ms") is not None]),
         "max_replan_ms": max((r["max_replan_ms"] for r in rows if r.get("max_replan_ms") is not None), default=None),

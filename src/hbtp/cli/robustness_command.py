@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import cast
+from typing import Any, cast
 
 import click
 
-from hbtp.bench.robustness import MAX_TICKS, SCENARIOS, RobustnessConfig, run_robustness
+from hbtp.bench.robustness import MAX_TICKS, REPLANNED, SCENARIOS, RobustnessConfig, run_robustness
 from hbtp.bench.runner import Execution
 from hbtp.cli.bench_commands import execution_options, out_dir_option
 from hbtp.cli.options import comma_choices, comma_numbers, option_group
@@ -32,7 +32,7 @@ def _config(
     max_ticks: int,
     robust: int,
     limit: int | None,
-    replan: bool,
+    replan: bool | None,
 ) -> RobustnessConfig:
     chosen = comma_choices(scenario_text, SCENARIOS, "--scenarios", "scenario")
     if runs < 1:
@@ -49,7 +49,8 @@ def _config(
         planner=planner,
         heuristic=cast(HeuristicName, heuristic),
         robust=robust,
-        replan=replan,
+        replan=replan is not None,
+        repair=replan is not False,
     )
 
 
@@ -90,10 +91,42 @@ robustness_options = option_group(
     click.option("--limit", type=int, help="Only the first N tasks of each test set."),
     click.option(
         "--replan",
-        is_flag=True,
-        help="Also run each tree with re-planning from the state it fails in (rows full+replan, path+replan).",
+        "replan",
+        flag_value=True,
+        default=None,
+        help="Also run each tree with re-planning from the state it fails in (rows full+replan, path+replan), "
+        "each re-plan continuing the last search (repair).",
+    ),
+    click.option(
+        "--replan-from-scratch",
+        "replan",
+        flag_value=False,
+        help="As --replan, with a new search for each re-plan (for comparison).",
     ),
 )
+
+
+def _echo_replanning(summary: dict[str, Any], config: RobustnessConfig) -> None:
+    """The re-planning figures: runs reached of those still reachable, budget hits, re-plan and plan times."""
+    how = "from scratch" if not config.repair else "repair"
+    click.echo(
+        f"re-planning ({how}): {'scenario':15} {'p':>4} {'tree':11} {'reached':>13} {'budget':>6} "
+        f"{'median replan ms':>16} {'max replan ms':>13} {'median plan ms':>14}"
+    )
+    for name, block in summary["scenarios"].items():
+        for p, entry in block["p"].items():
+            for kind in REPLANNED:
+                row = entry[kind]
+                reached = f"{row['reachable_runs_succeeded']}/{row['reachable_runs']}"
+                click.echo(
+                    f"re-planning ({how}): {name:15} {p:>4} {kind:11} {reached:>13} {row['budget_runs']:>6} "
+                    f"{_ms(row['median_replan_ms']):>16} {_ms(row['max_replan_ms']):>13} "
+                    f"{_ms(row['median_plan_ms']):>14}"
+                )
+
+
+def _ms(value: float | None) -> str:
+    return "-" if value is None else f"{value:.1f}"
 
 
 @click.command("robustness")
@@ -118,6 +151,8 @@ def robustness(out_dir: str, config: RobustnessConfig, execution: Execution) -> 
                     f"{name:15} {p:>4} {kind:11} {_figure(row['success_rate'], True):>8} "
                     f"{_figure(row['mean_extra_ticks']):>12} {_figure(row['mean_extra_cost']):>11} {nodes:>7}  {better}"
                 )
+    if config.replan:
+        _echo_replanning(summary, config)
     click.echo(f"wrote {Path(out_dir) / 'results.jsonl'} and {Path(out_dir) / 'summary.json'}")
     return 0
 

@@ -80,14 +80,9 @@ def search(
         stats = SearchStats(time_s=time.perf_counter() - started, action_space=len(actions))
         return PlanResult(status, config.name, goal, message=message, stats=stats)
 
-    unsolvable = goal.unsolvable
-    if unsolvable is not None:
-        return finish(Status.UNSOLVABLE, unsolvable)
-    if mutexes is not None:
-        clashes = [mutexes.conflict(d) for d in goal.reachable]
-        if all(clash is not None for clash in clashes):
-            names = "; ".join(" and ".join(task.names(clash)) for clash in clashes if clash is not None)
-            return finish(Status.UNSOLVABLE, f"the goal asks for {names}, which cannot hold together")
+    verdict = goal_verdict(task, goal, mutexes)
+    if verdict is not None:
+        return finish(Status.UNSOLVABLE, verdict)
     memory = search_memory()
     with memory.paused() if memory is not None else collector_paused():
         try:
@@ -95,19 +90,40 @@ def search(
         except TimeLimitReached as stop:
             return finish(Status.TIMEOUT, str(stop))
         if not run.live_roots():
-            heuristic = run.heuristic
-            assert heuristic is not None
-            dead = sorted({a for d in goal.disjuncts for a in d if math.isinf(heuristic((a,)))})
-            names = listing(task.names(dead)) or str(goal)
-            return finish(Status.UNSOLVABLE, f"{names} cannot be reached from s0 with this action space")
+            return finish(Status.UNSOLVABLE, run.dead_goal())
         result = run.run()
         if memory is not None:
             memory.park(run.release())
         return result
 
 
+def goal_verdict(task: GroundTask, goal: Goal, mutexes: Mutexes | None) -> str | None:
+    """Why ``goal`` is unsolvable before any search (its literals, or mutexes in every disjunct), or ``None``."""
+    if goal.unsolvable is not None:
+        return goal.unsolvable
+    if mutexes is not None:
+        clashes = [mutexes.conflict(d) for d in goal.reachable]
+        if all(clash is not None for clash in clashes):
+            names = "; ".join(" and ".join(task.names(clash)) for clash in clashes if clash is not None)
+            return f"the goal asks for {names}, which cannot hold together"
+    return None
+
+
 class _Search(SearchState):
     """One run of the search (see the module docstring): the open list, expansion and regression."""
+
+    #: A closed condition that holds in s0 and its g (:mod:`hbtp.planning.repair` sets them when it
+    #: continues a search from a new state): the loop ends with it once no entry is cheaper.
+    cover: frozenset[int] | None = None
+    cover_g: Number = math.inf
+
+    def dead_goal(self) -> str:
+        """Why no disjunct of the goal is live (the heuristic proves each a dead end)."""
+        heuristic = self.heuristic
+        assert heuristic is not None
+        dead = sorted({a for d in self.goal.disjuncts for a in d if math.isinf(heuristic((a,)))})
+        names = listing(self.task.names(dead)) or str(self.goal)
+        return f"{names} cannot be reached from s0 with this action space"
 
     def priority(self, condition: frozenset[int], g: Number) -> Number:
         if self.astar and self.heuristic is not None:
@@ -120,23 +136,38 @@ class _Search(SearchState):
         heapq.heappush(self.open, entry)
 
     def run(self) -> PlanResult:
+        self.plant()
+        for condition in self.live_roots():
+            self.push(condition, self.nodes[condition], self.priority(condition, 0), self.fresh)
+        return self.loop()
+
+    def plant(self) -> None:
+        """Record the goal's disjuncts (the tree's goal checks) as the roots, at g = 0."""
         for condition in self.goal.disjuncts:
             root = Node(0, 0, self.initial_owed, None, None)
             self.nodes[condition] = root
             self.record(condition, root)
-        for condition in self.live_roots():
-            self.push(condition, self.nodes[condition], self.priority(condition, 0), self.fresh)
+
+    def loop(self) -> PlanResult:
+        """Take conditions off the open list until one that holds in s0 is expanded (or a limit)."""
         roots = frozenset(self.goal.disjuncts)
         final: frozenset[int] | None = None
+        cover_g = self.cover_g
         open_list = self.open
         nodes = self.nodes
         expanded = self.expanded
         pops = 0
         check_every = self.check_every
         while open_list and self.stopped is None:
-            priority, _owed, _unmet, _order, entry_g, condition, stage = heapq.heappop(open_list)
+            priority, owed, unmet, order, entry_g, condition, stage = heapq.heappop(open_list)
             pops += 1
+            if priority >= cover_g and final is None:  # nothing left is cheaper than the closed cover
+                heapq.heappush(open_list, (priority, owed, unmet, order, entry_g, condition, stage))
+                final = self.cover
+                self.explored_at_solution = len(self.expansions)
+                break
             if pops & check_every == 0 and final is None and self.watch.timed_out():
+                heapq.heappush(open_list, (priority, owed, unmet, order, entry_g, condition, stage))
                 self.stopped = Status.TIMEOUT
                 break
             node = nodes[condition]
@@ -167,6 +198,9 @@ class _Search(SearchState):
                 if self.stopped is not None:
                     break
             self.start_expansion(condition, node, priority)
+        if final is None and self.stopped is None and self.cover is not None:  # the open list emptied
+            final = self.cover
+            self.explored_at_solution = len(self.expansions)
         if final is not None:
             self.stopped = None
         return self.result(final)
@@ -289,7 +323,7 @@ class _Search(SearchState):
         if math.isinf(priority) or (
             not self.astar and self.heuristic is not None and math.isinf(self.heuristic(result))
         ):
-            self.pruned_dead_end += 1
+            self.dead_end(condition, action)
             return
         new = Node(g, node.cost + action.cost, owed, condition, action.index)
         if result in self.position:  # expanded before, at a higher g
@@ -299,6 +333,10 @@ class _Search(SearchState):
         self.nodes[result] = new
         self.generated += 1
         self.push(result, new, priority, self.fresh)
+
+    def dead_end(self, condition: frozenset[int], action: GroundAction) -> None:
+        """``condition`` regressed through ``action`` is a dead end for the heuristic (dropped)."""
+        self.pruned_dead_end += 1
 
     def symmetric_duplicate(self, condition: frozenset[int], g: Number) -> bool:
         """Whether a condition symmetric to ``condition`` is held at no higher g (else ``condition``
@@ -324,4 +362,4 @@ def _completes_nogood(rest: frozenset[int], nogoods: Sequence[Sequence[frozenset
     return False
 
 
-__all__ = ["SearchConfig", "release_search_memory", "search"]
+__all__ = ["SearchConfig", "goal_verdict", "release_search_memory", "search"]

@@ -1,0 +1,183 @@
+"""Re-planning as repair (hbtp.planning.repair): a kept search continued from other states.
+
+Every answer is checked against a fresh search from the same state (the same optimal cost, the same
+verdict) and, on the small random tasks, against the brute-force optimum of tests/helpers.py; every
+tree a repair returns is ticked from its state and reaches the goal at that cost. One search is
+continued many times in a row (its state carries over), on random tasks with and without proved
+mutexes, and on disturbed states of the shipped scenarios.
+"""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+
+from hbtp.bt import tree_of
+from hbtp.bt.disturb import seeded_disturbances
+from hbtp.domains import Scenario
+from hbtp.domains.mutex import infer_mutexes
+from hbtp.logic.task import GroundTask
+from hbtp.planning import PlanResult, Status, plan, planner_config, search
+from hbtp.planning.repair import RepairableSearch, repairable
+from hbtp.replanning import KeptSearch, Replanner, ReplanOptions, replanning_runs
+from helpers import brute_force, random_task, run_tree
+
+CONTINUED = ("none", "hmax", "lm")
+
+
+def check_tree(result: PlanResult, task: GroundTask, state: frozenset[int]) -> None:
+    """Both trees of a solved result reach the goal from ``state`` at the result's cost."""
+    for kind in ("full", "path"):
+        run = run_tree(tree_of(result, kind), task, state, 1000)
+        assert run.reached, kind
+        assert run.cost == result.cost, kind
+
+
+def random_states(task: GroundTask, rng: random.Random, count: int) -> list[frozenset[int]]:
+    return [frozenset(i for i in range(len(task.atoms)) if rng.random() < 0.4) for _ in range(count)]
+
+
+@pytest.mark.parametrize("heuristic", CONTINUED)
+def test_repairs_are_optimal_on_random_tasks(heuristic: str) -> None:
+    """One kept search per task, continued from 5 random states in a row: the brute-force optimum."""
+    config = planner_config("obtea", heuristic=heuristic)  # type: ignore[arg-type]
+    checked = 0
+    for seed in range(150):
+        task, goal = random_task(seed)
+        mutexes = infer_mutexes(task) if seed % 2 else None
+        kept, first = RepairableSearch.start(task, goal, task.actions, config, mutexes=mutexes)
+        assert first.cost == brute_force(task, goal.ids)[0]
+        if kept is None:
+            continue
+        for state in random_states(task, random.Random(seed), 5):
+            if mutexes is not None and mutexes.conflict(state) is not None:
+                continue  # a repair is used only from states that keep the proved mutexes
+            world = task.from_state(state)
+            here = world.resolve_goal(goal)
+            optimum, _ = brute_force(world, here.ids)
+            result = kept.repair(world, here)
+            assert result.cost == optimum, (seed, sorted(state))
+            assert result.status is (Status.UNSOLVABLE if optimum is None else Status.SOLVED)
+            if result.solved:
+                check_tree(result, world, state)
+            checked += 1
+    assert checked > 400
+
+
+def continue_on_disturbed_states(scenario: Scenario, goal_text: str, states: int) -> int:
+    """A kept search continued from ``states`` disturbed states: each answer as a fresh search's."""
+    task, mutexes = scenario.task, scenario.mutexes.proved_only()
+    goal = task.resolve_goal(goal_text)
+    config = planner_config("obtea", heuristic="lm")
+    kept, first = RepairableSearch.start(task, goal, task.actions, config, mutexes=mutexes)
+    assert kept is not None
+    assert first.solved
+    compared = 0
+    for disturbance in seeded_disturbances(task, scenario.mutexes, 0.5, states, seed=3):
+        state = task.initial_state
+        for tick in range(1, 4):  # a few events in a row, as during a run
+            event = disturbance(tick, state, None, None)
+            state = event.apply(state) if event is not None else state
+        if mutexes.conflict(state) is not None or goal.holds(state):
+            continue
+        world = task.from_state(state)
+        here = world.resolve_goal(goal)
+        fresh = search(world, here, world.actions, config, mutexes=mutexes)
+        repaired = kept.repair(world, here)
+        assert (repaired.status, repaired.cost) == (fresh.status, fresh.cost)
+        if repaired.solved:
+            check_tree(repaired, world, state)
+        compared += 1
+    return compared
+
+
+def test_repairs_match_fresh_searches_on_robowaiter(robowaiter: Scenario) -> None:
+    assert continue_on_disturbed_states(robowaiter, "On_Coffee_Table1", 25) >= 10
+
+
+def test_repairs_match_fresh_searches_on_virtualhome(virtualhome: Scenario) -> None:
+    assert continue_on_disturbed_states(virtualhome, "IsOn_cupcake_kitchentable & IsSwitchedOn_tablelamp", 25) >= 10
+
+
+def test_repairs_match_fresh_searches_on_robothow_small(robothow_small: Scenario) -> None:
+    assert continue_on_disturbed_states(robothow_small, "IsIn_cutlets_fridge & IsClose_fridge", 20) >= 8
+
+
+def test_only_consistent_costs_and_heuristics_continue() -> None:
+    assert repairable(planner_config("obtea", heuristic="lm"))
+    assert not repairable(planner_config("obtea", heuristic="lmcut"))
+    assert not repairable(planner_config("hbtp-s"))
+    assert not repairable(planner_config("bte", heuristic="lm"))
+    task, goal = random_task(1)
+    with pytest.raises(ValueError, match="cannot be continued"):
+        RepairableSearch.start(task, goal, task.actions, planner_config("hbtp-s"))
+
+
+def test_a_search_continues_for_its_own_goal_only() -> None:
+    task, goal = random_task(2)
+    kept, _ = RepairableSearch.start(task, goal, task.actions, planner_config("obtea", heuristic="lm"))
+    assert kept is not None
+    other = task.resolve_goal([task.atoms[i] for i in range(len(task.atoms)) if i not in goal.ids][:1])
+    with pytest.raises(ValueError, match="own goal"):
+        kept.repair(task, other)
+
+
+def test_replanning_runs_by_repair_reach_the_goal(robothow_small: Scenario) -> None:
+    """Runs re-planned by repair (one kept search shared by the runs): every run whose goal stays
+    reachable reaches it, within the budget."""
+    goal = robothow_small.task.resolve_goal("IsIn_apple_fridge & IsClose_fridge")
+    tree = tree_of(plan(robothow_small.task, goal, "obtea", mutexes=robothow_small.mutexes), "path")
+    runs = replanning_runs(robothow_small, goal, tree, 0.5, 12, seed=5, max_ticks=200)
+    assert sum(len(r.replans) for r in runs) >= 3, "the disturbances should force re-plans"
+    for run in runs:
+        assert run.unsolvable or run.reached(goal.ids), run.gave_up
+        assert all(replan.status in ("solved", "unsolvable") for replan in run.replans)
+
+
+def test_a_replanner_repairs_at_the_cost_of_a_fresh_search(robothow_small: Scenario) -> None:
+    """A Replanner re-planning by repair from a series of disturbed states: each re-plan costs what
+    a fresh search from that state costs, and its tree reaches the goal from there at that cost."""
+    task, mutexes = robothow_small.task, robothow_small.mutexes.proved_only()
+    goal = task.resolve_goal("IsIn_apple_fridge & IsClose_fridge")
+    policy = Replanner(robothow_small, goal, None, ReplanOptions(max_replans=100))
+    config = planner_config("obtea", heuristic="lm")
+    compared = 0
+    for disturbance in seeded_disturbances(task, robothow_small.mutexes, 0.5, 15, seed=11):
+        state = task.initial_state
+        for tick in range(1, 5):
+            event = disturbance(tick, state, None, None)
+            state = event.apply(state) if event is not None else state
+        if goal.holds(state) or mutexes.conflict(state) is not None:
+            continue
+        world = task.from_state(state)
+        fresh = search(world, world.resolve_goal(goal), world.actions, config, mutexes=mutexes)
+        assert policy.replan(state, "test") == fresh.solved
+        replan = policy.replans[-1]
+        assert (replan.status, replan.cost) == (fresh.status.value, fresh.cost)
+        if replan.tree is not None:
+            run = run_tree(replan.tree, world, state, 1000)
+            assert run.reached
+            assert run.cost == fresh.cost
+        compared += 1
+        policy.gave_up = None
+    assert compared >= 5
+    assert policy.kept.search is not None
+
+
+def test_a_kept_search_is_shared_and_dropped_for_another_goal(robowaiter: Scenario) -> None:
+    kept = KeptSearch()
+    task = robowaiter.task
+    goal = task.resolve_goal("On_Coffee_Table1")
+    policy = Replanner(robowaiter, goal, None, ReplanOptions(kept=kept))
+    policy(task.initial_state)  # no tree: the first tick re-plans and starts the kept search
+    assert kept.search is not None
+    assert policy.replans[0].status == "solved"
+    first = kept.search
+    Replanner(robowaiter, goal, None, ReplanOptions(kept=kept))(task.initial_state)
+    assert kept.search is first  # continued, not started anew
+    other = task.resolve_goal("On_Dessert_Bar")
+    Replanner(robowaiter, other, None, ReplanOptions(kept=kept))(task.initial_state)
+    assert kept.search is not first
+    assert kept.search is not None
+    assert kept.search.goal.disjuncts == other.disjuncts
