@@ -5,6 +5,7 @@ from __future__ import annotations
 import shlex
 import sys
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -46,6 +47,32 @@ settings_options = option_group(
 )  # fmt: skip
 
 
+@dataclass(frozen=True)
+class Judging:
+    """Which models are judged on the held-back goals: the taught one (unless ``--no-eval``), and the
+    base model too with ``--baseline``."""
+
+    evaluate: bool = True
+    baseline: bool = False
+
+
+def _judging(no_eval: bool, baseline: bool) -> Judging:
+    return Judging(evaluate=not no_eval, baseline=baseline)
+
+
+#: ``--no-eval`` and ``--baseline``.
+judging_options = option_group(
+    "judging",
+    _judging,
+    click.option("--no-eval", is_flag=True, help="Do not judge the model on the held-back goals."),
+    click.option(
+        "--baseline",
+        is_flag=True,
+        help="Judge the base model too (few-shot, as --llm local without an adapter) on the same held-back goals.",
+    ),
+)
+
+
 @click.command("train")
 @scenario_options
 @click.option(
@@ -77,18 +104,13 @@ settings_options = option_group(
     type=click.FloatRange(0, min_open=True),
     help="Seconds of training at most; the same command then goes on from the checkpoint.",
 )
-@click.option("--no-eval", is_flag=True, help="Do not judge the model on the held-back goals.")
 @click.option(
     "--instructions/--no-instructions",
     default=True,
     show_default=True,
     help="Teach instructions -> goals too (goals said in words by the verbaliser), beside goals -> hints.",
 )
-@click.option(
-    "--baseline",
-    is_flag=True,
-    help="Judge the base model too (few-shot, as --llm local without an adapter) on the same held-back goals.",
-)
+@judging_options
 @click.option("--json", "as_json", is_flag=True, help="Print the outcome as JSON.")
 def train_command(
     source: ScenarioSource,
@@ -98,9 +120,8 @@ def train_command(
     out_file: str | None,
     work: str | None,
     time_limit: float | None,
-    no_eval: bool,
     instructions: bool,
-    baseline: bool,
+    judging: Judging,
     as_json: bool,
 ) -> int:
     """Teach the local model (Gemma-3 270M) a scenario or your PDDL world: goals sampled and labelled
@@ -115,7 +136,7 @@ def train_command(
     where: dict[str, object] = {"scenario": source.scenario} if source.scenario else {"pddl": list(source.pddl or ())}
     request = TrainRequest(
         loaded, where, count, held_out, settings, Path(out_file) if out_file else None,
-        Path(work) if work else None, time_limit, not no_eval, instructions, _command_line(), baseline,
+        Path(work) if work else None, time_limit, judging.evaluate, instructions, _command_line(), judging.baseline,
     )  # fmt: skip
     outcome = run_training(request, cache_folder().parent / "train", None if as_json else _progress)
     if as_json:
