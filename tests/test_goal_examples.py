@@ -9,11 +9,19 @@ import pytest
 
 from hbtp.domains import Scenario
 from hbtp.llm.goal_prompt import refusal_of, taught_goal_prompt
+from hbtp.logic.execution import apply_actions
 from hbtp.logic.goals import parse_goal
 from hbtp.planning import plan
 from hbtp.planning.generate import LEVELS, Sampling, generate_records
 from hbtp.train.examples import ExampleKind, check_disjoint, goal_key, held_goals
-from hbtp.train.goal_examples import foreign_objects, goal_examples, instruction_goal, negatable, unmet_literals
+from hbtp.train.goal_examples import (
+    foreign_objects,
+    goal_examples,
+    instruction_goal,
+    kept_atoms,
+    negatable,
+    unmet_literals,
+)
 from hbtp.train.verbalise import words_for
 
 
@@ -49,6 +57,19 @@ def test_one_literal_goals_are_the_labelled_goals_literals_unmet_at_the_start(
             assert task.atom_id(literal) not in task.initial_state
     singles = [e for e in goal_examples(virtualhome, records, seed=1) if e.goal.count("_") and " " not in e.goal]
     assert len(singles) >= len(records) // 5  # about a third of the instructions ask for one thing
+
+
+def test_a_kept_literal_holds_at_the_start_and_after_the_plan(virtualhome: Scenario, records: list) -> None:
+    task = virtualhome.task
+    found = 0
+    for record in records:
+        final, done = apply_actions(task, [task.action(name) for name in record.optimal_actions])
+        assert done == len(record.optimal_actions)
+        for atom in kept_atoms(virtualhome, record):
+            found += 1
+            assert task.atom_id(atom) in task.initial_state
+            assert task.atom_id(atom) in final
+    assert found
 
 
 def test_a_negation_is_of_an_atom_the_plan_makes_false(virtualhome: Scenario, records: list) -> None:

@@ -6,6 +6,8 @@ solvable and none holds at the start:
 * *one*: one literal of a labelled goal that does not hold at the start (most instructions people
   give ask for one thing; labelled goals mostly have two or three literals);
 * *and*: a labelled goal as it is (one literal or several);
+* *kept*: a labelled goal and a literal that holds at the start and that its optimal plan leaves
+  true (people ask for what is so already, "and leave the light off", beside what is not);
 * *or*: two labelled goals as alternatives (``A | B``);
 * *not*: a labelled goal with the negation of an atom its optimal plan makes false
   (``A & ~p``: the plan reaches it), or that negation alone.
@@ -35,7 +37,7 @@ from hbtp.train.examples import Example, ExampleKind, goal_key, held_goals
 from hbtp.train.verbalise import Words, verbalise, words_for
 
 #: The shapes of the instruction goals, with their shares (refusals come on top: :data:`REFUSALS`).
-SHAPES: tuple[tuple[str, float], ...] = (("one", 0.35), ("and", 0.35), ("or", 0.15), ("not", 0.15))
+SHAPES: tuple[tuple[str, float], ...] = (("one", 0.3), ("and", 0.25), ("kept", 0.15), ("or", 0.15), ("not", 0.15))
 #: Refusals per instruction example.
 REFUSALS = 0.08
 
@@ -45,6 +47,16 @@ _WORD = re.compile(r"[a-z0-9]+")
 def negatable(scenario: Scenario, record: Record) -> list[Atom]:
     """The fluent atoms that hold at the start and no longer hold after ``record``'s plan: their
     negation is reached by that plan."""
+    return _start_atoms(scenario, record, kept=False)
+
+
+def kept_atoms(scenario: Scenario, record: Record) -> list[Atom]:
+    """The fluent atoms that hold at the start and still hold after ``record``'s plan: asked for
+    beside the record's goal, the same plan reaches them."""
+    return _start_atoms(scenario, record, kept=True)
+
+
+def _start_atoms(scenario: Scenario, record: Record, *, kept: bool) -> list[Atom]:
     task = scenario.task
     try:
         actions = [task.action(parse_atom(name)) for name in record.optimal_actions]
@@ -53,9 +65,9 @@ def negatable(scenario: Scenario, record: Record) -> list[Atom]:
     final, done = apply_actions(task, actions)
     if done < len(actions):
         return []
-    gone = task.initial_state - final
+    chosen = task.initial_state & final if kept else task.initial_state - final
     return sorted(
-        (task.atoms[i] for i in gone if not task.atoms[i].negated and task.atoms[i].predicate in task.predicates),
+        (task.atoms[i] for i in chosen if not task.atoms[i].negated and task.atoms[i].predicate in task.predicates),
         key=lambda atom: atom.underscored,
     )
 
@@ -76,6 +88,16 @@ def unmet_literals(scenario: Scenario, goal: str) -> list[str]:
     return unmet
 
 
+def _compatible(scenario: Scenario, goal: str, atoms: Sequence[Atom]) -> list[Atom]:
+    """The ``atoms`` that the world's mutexes let hold together with the conjunctive ``goal``."""
+    terms = parse_goal(goal)
+    if len(terms) != 1:
+        return []
+    task = scenario.task
+    literals = {task.atom_id(literal) for literal in terms[0]}
+    return [atom for atom in atoms if scenario.mutexes.conflict(literals | {task.atom_id(atom)}) is None]
+
+
 def instruction_goal(scenario: Scenario, record: Record, others: Sequence[Record], rng: random.Random) -> str:
     """A goal of one of the :data:`SHAPES` (drawn by their shares) built on ``record``'s goal."""
     shape = rng.choices([name for name, _ in SHAPES], [share for _, share in SHAPES])[0]
@@ -83,6 +105,10 @@ def instruction_goal(scenario: Scenario, record: Record, others: Sequence[Record
         unmet = unmet_literals(scenario, record.goal)
         if unmet:
             return rng.choice(unmet)
+    if shape == "kept":
+        atoms = _compatible(scenario, record.goal, kept_atoms(scenario, record))
+        if atoms:
+            return f"{record.goal} & {rng.choice(atoms).underscored}"
     if shape == "or" and others:
         other = rng.choice(others)
         if other.goal != record.goal:
@@ -166,6 +192,7 @@ __all__ = [
     "foreign_objects",
     "goal_examples",
     "instruction_goal",
+    "kept_atoms",
     "negatable",
     "refusal_example",
     "unmet_literals",
