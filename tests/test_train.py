@@ -150,6 +150,28 @@ def _gguf(path: Path, fields: dict[str, str | float], tensors: dict[str, tuple[i
 ADAPTER = {"general.architecture": "gemma3", "general.type": "adapter", "adapter.type": "lora"}
 
 
+def test_too_little_memory_or_disk_is_refused_before_any_work(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import shutil
+
+    from hbtp.cli import main
+    from hbtp.train import run
+
+    monkeypatch.setattr(run, "_available_memory_mb", lambda: 500.0)
+    argv = ["train", "-s", "robowaiter", "-n", "10", "--work", str(tmp_path / "work"), "-o", str(tmp_path / "a.gguf")]
+    assert main(argv) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.count("\n") == 0
+    assert "free memory" in error
+    assert not (tmp_path / "work" / "examples.json").exists()  # refused before the examples
+    monkeypatch.setattr(run, "_available_memory_mb", lambda: None)  # /proc/meminfo unreadable: not checked
+    usage = shutil.disk_usage(tmp_path)
+    monkeypatch.setattr(run.shutil, "disk_usage", lambda _folder: usage._replace(free=50_000_000))
+    assert main(argv) == 2
+    assert "free disk" in capsys.readouterr().err
+
+
 def test_adapter_metadata_is_read_and_checked(tmp_path: Path) -> None:
     good = _gguf(tmp_path / "good.gguf", {**ADAPTER, "adapter.lora.alpha": 16.0, KEY_BASE: "abc", KEY_WORLD: "w1"})
     assert read_metadata(good)[KEY_WORLD] == "w1"
