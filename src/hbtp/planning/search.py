@@ -153,6 +153,7 @@ class _Search(SearchState):
         roots = frozenset(self.goal.disjuncts)
         final: frozenset[int] | None = None
         cover_g = self.cover_g
+        covered = self.cover is not None  # only a repair has one (a plain search keeps its old course)
         open_list = self.open
         nodes = self.nodes
         expanded = self.expanded
@@ -161,7 +162,7 @@ class _Search(SearchState):
         while open_list and self.stopped is None:
             priority, owed, unmet, order, entry_g, condition, stage = heapq.heappop(open_list)
             pops += 1
-            if priority >= cover_g and final is None:  # nothing left is cheaper than the closed cover
+            if covered and priority >= cover_g and final is None:  # nothing left is cheaper than the cover
                 heapq.heappush(open_list, (priority, owed, unmet, order, entry_g, condition, stage))
                 final = self.cover
                 self.explored_at_solution = len(self.expansions)
