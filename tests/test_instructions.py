@@ -358,7 +358,7 @@ def test_one_model_load_serves_the_instruction_and_the_hints_and_t_bounds_it(
     # -t bounds the instruction step too: too little time is a time limit (exit 1), in one line.
     started = time.perf_counter()
     code, _, err = _run(capsys, "plan", "-s", "virtualhome", "-i", "Put the chicken in the microwave.", "-t", "0.5")
-    assert time.perf_counter() - started < 0.5 + 2.5  # (loading the model is not interrupted)
+    assert time.perf_counter() - started < 0.5 + 4.0  # (loading the model and its adapter is not interrupted)
     assert code == 1
     assert err.startswith("hbtp: error: time limit of 0.5 s reached while")
     assert err.count("\n") == 1
