@@ -236,12 +236,12 @@ def test_a_tiny_training_run_writes_an_adapter_xllamacpp_applies(
     from hbtp.cli import main
 
     out = tmp_path / "rw.gguf"
-    argv = ["train", "-s", "robowaiter", "-n", "10", "--held-out", "0.2", "--epochs", "3", "--batch", "4",
+    argv = ["train", "-s", "robowaiter", "-n", "10", "--held-out", "0.2", "--epochs", "8", "--batch", "4",
             "--learning-rate", "0.003", "-o", str(out), "--work", str(tmp_path / "work"), "--json"]  # fmt: skip
     assert main(argv) == 0, capsys.readouterr().err
     outcome = json.loads(capsys.readouterr().out)
     assert outcome["last_loss"] < outcome["first_loss"]
-    assert outcome["held_out"]["examples"] == 2
+    assert outcome["held_out"]["examples"] >= 1  # the held-back goals (about 20% of 10), judged
     fields = read_metadata(out)
     assert fields["general.type"] == "adapter"
     assert fields["hbtp.scenario"] == "robowaiter"
