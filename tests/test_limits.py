@@ -13,11 +13,12 @@ import pytest
 
 from hbtp.bt import full_tree
 from hbtp.collector import searches_frozen
-from hbtp.deadline import Deadline
+from hbtp.deadline import Deadline, expired, seconds_left, within
 from hbtp.domains import DomainBuilder, Scenario
 from hbtp.errors import InputError
 from hbtp.logic.task import GroundTask
 from hbtp.planning import Limits, PlanResult, Status, plan
+from hbtp.planning.limits import LimitWatch
 from hbtp.planning.search import release_search_memory
 from helpers import run_tree
 
@@ -219,6 +220,36 @@ def test_starting_now_gives_limits_a_deadline_of_their_time_limit() -> None:
     assert before <= limits.deadline.started <= time.perf_counter()
     assert (limits.time_s, limits.max_expansions) == (5, 3)
     assert Limits(max_expansions=3).starting_now() == Limits(max_expansions=3)
+
+
+def test_a_sub_step_caps_the_command_deadline_and_never_extends_it() -> None:
+    command = Deadline(10.0, memory_mb=500.0)
+    round_cap = within(command, 0.5)
+    assert round_cap is not None
+    assert round_cap is not command
+    assert round_cap.seconds == 0.5
+    assert round_cap.memory_mb == 500.0
+    assert round_cap.at <= command.at
+    assert within(command, 60.0) is command  # a cap beyond the deadline leaves it as it is
+    assert within(command, None) is command
+    assert within(command, math.inf) is command
+    assert within(None, None) is None
+    alone = within(None, 2.0)
+    assert alone is not None
+    assert 1.9 < alone.remaining() <= 2.0
+    assert seconds_left(None) == math.inf
+    assert not expired(None)
+    assert expired(Deadline(0.5, started=time.perf_counter() - 1.0))
+
+
+def test_a_search_stops_at_the_earlier_of_its_own_limit_and_the_deadline() -> None:
+    watch = LimitWatch(Limits(time_s=0.2, deadline=Deadline(30.0)), time.perf_counter())
+    assert watch.deadline is not None
+    assert watch.deadline.seconds == 0.2
+    shared = Deadline(0.1)
+    watch = LimitWatch(Limits(time_s=30.0, deadline=shared), time.perf_counter())
+    assert watch.deadline is shared
+    assert LimitWatch(Limits(), time.perf_counter()).deadline is None
 
 
 def test_an_expired_deadline_stops_the_heuristic_set_up() -> None:

@@ -12,6 +12,7 @@ import pytest
 from hbtp.bt import tree_of
 from hbtp.bt.simulate import simulate
 from hbtp.cli import EXIT_INPUT, EXIT_NOT_SOLVED, EXIT_OK, main
+from hbtp.deadline import Deadline, seconds_left
 from hbtp.domains import Scenario
 from hbtp.errors import InputError
 from hbtp.llm.backend import Backend, PromptStyle, Reply, Request
@@ -51,7 +52,7 @@ class Slow:
 
     def complete(self, request: Request) -> Reply:
         self.calls += 1
-        time.sleep(min(self.seconds, request.time_limit or self.seconds))
+        time.sleep(min(self.seconds, seconds_left(request.deadline)))
         return Reply(GARBAGE + f" {self.calls}", self.seconds)
 
     def close(self) -> None:
@@ -108,9 +109,9 @@ def test_the_loop_falls_back_when_the_llm_is_useless_and_closes_the_backend(robo
 
 def test_the_time_limit_bounds_probe_and_loop(robothow_small: Scenario) -> None:
     factory = Factory(lambda: Slow(10.0))
-    options = LoopOptions(time_limit=0.5, fallback=False, feedback_rounds=10)
+    options = LoopOptions(fallback=False, feedback_rounds=10)
     started = time.perf_counter()
-    auto = plan_auto(robothow_small, GOAL, factory, (), options, probe_seconds=1e-9)
+    auto = plan_auto(robothow_small, GOAL, factory, (), options, probe_seconds=1e-9, deadline=Deadline(0.5))
     assert time.perf_counter() - started < 1.5
     assert auto.asked_llm
     assert not auto.solved
@@ -118,7 +119,7 @@ def test_the_time_limit_bounds_probe_and_loop(robothow_small: Scenario) -> None:
 
 def test_no_time_left_after_the_probe_means_no_backend(robothow_small: Scenario) -> None:
     factory = Factory(lambda: pytest.fail("the backend must not be built"))
-    auto = plan_auto(robothow_small, GOAL, factory, (), LoopOptions(time_limit=1e-9), probe_seconds=2.0)
+    auto = plan_auto(robothow_small, GOAL, factory, (), LoopOptions(), probe_seconds=2.0, deadline=Deadline(1e-9))
     assert auto.probe.status is Status.TIMEOUT
     assert not auto.asked_llm
     assert not auto.solved

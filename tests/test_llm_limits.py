@@ -23,6 +23,7 @@ import pytest
 from hbtp.cli import EXIT_INPUT, EXIT_NOT_SOLVED, EXIT_OK, main
 from hbtp.cli.hints_file import HintsSource, load_hints
 from hbtp.datasets import load_dataset
+from hbtp.deadline import Deadline
 from hbtp.domains import Scenario
 from hbtp.errors import BackendError, InputError
 from hbtp.llm.backend import Message, PromptStyle, Reply, Request
@@ -271,8 +272,9 @@ def test_every_llm_call_gets_the_time_left(robowaiter: Scenario) -> None:
             self.limits: list[float | None] = []
 
         def complete(self, request: Request) -> Reply:
-            self.limits.append(request.time_limit)
-            time.sleep(min(request.time_limit or 10.0, 10.0))
+            left = None if request.deadline is None else request.deadline.remaining()
+            self.limits.append(left)
+            time.sleep(min(left or 10.0, 10.0))
             raise BackendError("too slow")
 
         def close(self) -> None:
@@ -280,7 +282,7 @@ def test_every_llm_call_gets_the_time_left(robowaiter: Scenario) -> None:
 
     backend = Slow()
     started = time.monotonic()
-    loop = run_hbtp(robowaiter, GOAL, backend, (), LoopOptions(time_limit=1.0))
+    loop = run_hbtp(robowaiter, GOAL, backend, (), LoopOptions(), Deadline(1.0))
     assert time.monotonic() - started < 1.0 + SLACK
     assert len(backend.limits) == 1
     assert backend.limits[0] is not None
@@ -425,11 +427,28 @@ def test_record_then_replay_the_real_local_model(capsys: pytest.CaptureFixture[s
     _replay_matches(capsys, argv, tmp_path / "gemma.jsonl")
 
 
+def test_every_llm_call_gets_the_command_deadline(robowaiter: Scenario) -> None:
+    """One deadline from the caller to the innermost call: each request carries the run's own
+    :class:`Deadline` (not a number of seconds re-computed on the way)."""
+    seen: list[Deadline | None] = []
+
+    class Recording(OracleBackend):
+        def complete(self, request: Request) -> Reply:
+            seen.append(request.deadline)
+            return super().complete(request)
+
+    deadline = Deadline(120.0)
+    loop = run_hbtp(robowaiter, GOAL, Recording(robowaiter), (), LoopOptions(), deadline)
+    assert loop.result.solved
+    assert seen
+    assert all(d is deadline for d in seen)
+
+
 def test_the_key_ignores_style_defaults() -> None:
     base = Request((Message("user", "Goals: X"),), "Goals: X\nOptimal Actions:", goal="X")
     for changed in (
         Request(base.messages, base.completion_prompt, goal="X", max_tokens=160),
-        Request(base.messages, base.completion_prompt, goal="X", stop=("\n\n",), time_limit=3.0, round=1),
+        Request(base.messages, base.completion_prompt, goal="X", stop=("\n\n",), deadline=Deadline(3.0), round=1),
     ):
         assert changed.key() == base.key()
     assert Request(base.messages, "other", goal="X").key() != base.key()

@@ -22,6 +22,7 @@ from urllib.parse import urlsplit
 
 import pytest
 
+from hbtp.deadline import Deadline
 from hbtp.errors import BackendError
 from hbtp.llm.backend import Message, Request
 from hbtp.llm.backends import local
@@ -354,13 +355,13 @@ def test_a_call_is_stopped_at_its_time_limit_and_not_started_without_time() -> N
     backend._server = server  # no model: the stand-in streams
     started = time.perf_counter()
     with pytest.raises(BackendTimeLimit, match="stopped"):
-        backend.complete(Request((), "Goals: x\nOptimal Actions:", time_limit=0.3))
+        backend.complete(Request((), "Goals: x\nOptimal Actions:", deadline=Deadline(0.3)))
     assert 0.3 <= time.perf_counter() - started < 1.0
     assert server.chunks >= 5
     with pytest.raises(BackendTimeLimit, match="not asked"):  # a long prompt and little time: not sent
-        backend.complete(Request((), "Goals: x\n" * 2_000 + "Optimal Actions:", time_limit=0.5))
+        backend.complete(Request((), "Goals: x\n" * 2_000 + "Optimal Actions:", deadline=Deadline(0.5)))
     with pytest.raises(BackendTimeLimit, match="no time"):
-        backend.complete(Request((), "Goals: x\nOptimal Actions:", time_limit=0.0))
+        backend.complete(Request((), "Goals: x\nOptimal Actions:", deadline=Deadline(1.0, time.perf_counter() - 2.0)))
     backend._server = None
 
 

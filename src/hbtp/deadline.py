@@ -8,6 +8,7 @@ command ends within about a second of its time limit. A phase that cannot finish
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -64,3 +65,24 @@ def check_deadline(deadline: Deadline | None, phase: str) -> None:
     """:meth:`Deadline.check` when there is a deadline."""
     if deadline is not None:
         deadline.check(phase)
+
+
+def seconds_left(deadline: Deadline | None) -> float:
+    """Seconds left before ``deadline`` (``math.inf`` without one; negative once passed)."""
+    return math.inf if deadline is None else deadline.remaining()
+
+
+def expired(deadline: Deadline | None) -> bool:
+    """Whether ``deadline`` passed (never without one)."""
+    return deadline is not None and deadline.expired()
+
+
+def within(deadline: Deadline | None, seconds: float | None) -> Deadline | None:
+    """The earlier of ``deadline`` and ``seconds`` from now: the cap of one sub-step (a round's
+    search, an LLM call, the fallback) inside a command's deadline. ``None`` when neither bounds."""
+    if seconds is None or not math.isfinite(seconds):
+        return deadline
+    if deadline is not None and deadline.remaining() <= seconds:
+        return deadline
+    memory_mb = None if deadline is None else deadline.memory_mb
+    return Deadline(max(seconds, 1e-9), memory_mb=memory_mb)

@@ -10,7 +10,6 @@ exit 2, the attempts in ``--json``; no time left for it: exit 1.
 from __future__ import annotations
 
 import logging
-from dataclasses import replace
 
 import click
 
@@ -46,9 +45,8 @@ def choose_goal(
     instruction = read_goal(text, InputKind.INSTRUCTION)
     if deadline is not None:
         deadline.check(_ASKING)
-        options = replace(options, time_limit=deadline.remaining())
     try:
-        choice = goal_from_instruction(loaded, instruction, llm, instruction_pool(loaded), options)
+        choice = goal_from_instruction(loaded, instruction, llm, instruction_pool(loaded), options, deadline)
     except BackendTimeLimit as error:
         if deadline is None:
             raise

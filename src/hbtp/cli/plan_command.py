@@ -189,8 +189,8 @@ class LlmRequest:
             return self.grounding is Grounding.PRUNED
         return source.pddl is not None and self.llm is not None and self.llm.kind.is_model and not self.llm.auto
 
-    def loop_options(self, search: SearchRequest, time_left: float | None, progress: Progress | None) -> LoopOptions:
-        """The loop's options; ``time_left`` (what is left of ``-t``) bounds all of it."""
+    def loop_options(self, search: SearchRequest, progress: Progress | None) -> LoopOptions:
+        """The loop's options (the deadline of ``-t`` is given to the loop beside them)."""
         return LoopOptions(
             planner=search.planner,
             feedback_rounds=self.feedback_rounds,
@@ -200,7 +200,6 @@ class LlmRequest:
             fallback_time_limit=search.time_limit,
             fallback_heuristic=search.heuristic,
             prompt=PromptOptions(examples=self.examples, retrieval=self.retrieval),
-            time_limit=time_left,
             progress=progress,
         )
 

@@ -25,6 +25,7 @@ from hbtp.cli.hints_file import load_hints
 from hbtp.cli.instruction_input import DEFAULT_INSTRUCTION_BACKEND, choose_goal
 from hbtp.cli.plan_command import Grounding, PlanRequest
 from hbtp.cli.plan_report import PlanOutcome, PlanReport
+from hbtp.deadline import Deadline
 from hbtp.domains import Scenario
 from hbtp.errors import InputError
 from hbtp.llm.backend import Backend
@@ -78,12 +79,13 @@ class PlanSession:
         self.chosen: GoalChoice | None = None
         self._backends: dict[str, Backend] = {}
 
-    def time_left(self) -> float | None:
-        deadline = self.limits.deadline
-        return None if deadline is None else max(deadline.remaining(), 1e-9)
+    @property
+    def deadline(self) -> Deadline | None:
+        """The deadline of ``-t``, started with the command: every phase gets it."""
+        return self.limits.deadline
 
     def load(self) -> Scenario:
-        return self.request.source.load(deadline=self.limits.deadline)
+        return self.request.source.load(deadline=self.deadline)
 
     def resolve(self, scenario: Scenario) -> tuple[Scenario, Goal]:
         """The goal (``-g``, the instruction's, or the problem's ``:goal``) resolved in ``scenario``."""
@@ -95,7 +97,7 @@ class PlanSession:
             options = InstructOptions(rounds=request.llm.feedback_rounds, seed=request.llm.seed)
             backend = self.goal_backend(spec, scenario)
             self.chosen = choose_goal(
-                scenario, request.instruction, backend, options, self.limits.deadline, as_json=request.outputs.as_json
+                scenario, request.instruction, backend, options, self.deadline, as_json=request.outputs.as_json
             )
             text = self.chosen.goal or ""
         else:
@@ -121,7 +123,7 @@ class PlanSession:
         return self.request.llm.backend_options()
 
     def loop_options(self) -> LoopOptions:
-        return self.request.llm.loop_options(self.request.search, self.time_left(), self.progress)
+        return self.request.llm.loop_options(self.request.search, self.progress)
 
     def _started(self, backend: Backend) -> Backend:
         """``backend``, a local model loaded now when progress is shown (then saying so)."""
@@ -194,7 +196,8 @@ def _loop(session: PlanSession) -> PlanOutcome:
     assert spec is not None
     scenario, goal = session.resolve(session.load())
     backend = session.backend(spec, scenario)
-    loop = run_hbtp(scenario, goal, backend, example_pool(scenario, llm.examples_from), session.loop_options())
+    pool = example_pool(scenario, llm.examples_from)
+    loop = run_hbtp(scenario, goal, backend, pool, session.loop_options(), session.deadline)
     return PlanOutcome(scenario, goal, loop.result, "llm", loop=loop, chosen=session.chosen)
 
 
@@ -210,6 +213,7 @@ def _auto(session: PlanSession) -> PlanOutcome:
         lambda: example_pool(scenario, llm.examples_from),
         session.loop_options(),
         llm.auto_probe,
+        session.deadline,
     )
     hints = "llm" if auto.asked_llm else "none"
     return PlanOutcome(scenario, goal, auto.result, hints, loop=auto.loop, auto=auto, chosen=session.chosen)
@@ -221,7 +225,7 @@ def _pruned(session: PlanSession) -> PlanOutcome:
     request = session.request
     spec = request.llm.llm
     assert spec is not None
-    world = request.source.load_pruned(deadline=session.limits.deadline)
+    world = request.source.load_pruned(deadline=session.deadline)
     empty = world.part(frozenset(), frozenset())
     goal_text = read_goal(request.goal) if request.goal is not None else empty.problem_goal()
     goal = empty.resolve_goal(goal_text)[1]
@@ -229,7 +233,8 @@ def _pruned(session: PlanSession) -> PlanOutcome:
     # a model needs no world at all.
     answering = empty if spec.kind.is_model else session.load()
     backend = session.backend(spec, answering)
-    loop = run_hbtp(world, goal, backend, example_pool(world, request.llm.examples_from), session.loop_options())
+    pool = example_pool(world, request.llm.examples_from)
+    loop = run_hbtp(world, goal, backend, pool, session.loop_options(), session.deadline)
     grounding = {
         "kind": "pruned",
         "actions": len(world.names.actions),

@@ -19,6 +19,7 @@ import json
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from hbtp.deadline import Deadline
 from hbtp.llm.constrain import Constraint
 from hbtp.logic.goal import Goal
 
@@ -50,9 +51,9 @@ class Request:
     temperature: float = 0.0
     seed: int = 0
     stop: tuple[str, ...] = ()
-    #: Seconds this one call may take at most (the loop's remaining budget), or ``None``; a backend
-    #: that can stops by then (the OpenAI backend uses the smaller of this and its own timeout).
-    time_limit: float | None = None
+    #: When this one call must be over (the command's deadline, capped for the call), or ``None``; a
+    #: backend that can stops by then (the OpenAI backend by this or its own timeout, if sooner).
+    deadline: Deadline | None = field(default=None, compare=False, repr=False)
     #: The reply's grammar and JSON schema (constrained decoding), or ``None``: free text.
     constraint: Constraint | None = None
     #: The instruction a goal is asked for (:mod:`hbtp.llm.goal_prompt`), for the instruction oracle.
@@ -70,7 +71,7 @@ class Request:
         Only the question itself counts: the conversation, the completion prompt, the temperature
         and the seed. ``max_tokens`` and ``stop`` are left out: they are defaults of the prompt
         style (chat or completion) rather than part of the question, so a run recorded with one
-        backend replays with another; ``round``, ``attempt`` and ``time_limit`` are bookkeeping.
+        backend replays with another; ``round``, ``attempt`` and ``deadline`` are bookkeeping.
         The ``constraint`` is left out too: it is a function of the scenario and only narrows the
         replies, so files recorded with or without it replay either way (a replayed free-text reply
         goes through the grammar checker like any other).

@@ -7,12 +7,11 @@ gain from hints. So :func:`plan_auto` first runs that search (the configured pla
 heuristic, the full action space, no hints) for ``probe_seconds``, about one model call. A verdict
 (solved, or proved unsolvable) is returned at once: the backend is never built, so a local model is
 never loaded. Otherwise the HBTP loop (:func:`~hbtp.pipeline.loop.run_hbtp`: LLM rounds, feedback,
-fallback) runs in the time that is left of ``LoopOptions.time_limit``, which bounds the whole call.
+fallback) runs in the time that is left before ``deadline``, which bounds the whole call.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -20,6 +19,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from hbtp.datasets.records import Record
+from hbtp.deadline import Deadline, expired, within
 from hbtp.domains.scenarios import Scenario
 from hbtp.llm.backend import Backend
 from hbtp.logic.task import Goal
@@ -80,6 +80,7 @@ def plan_auto(
     pool: Sequence[Record] | Callable[[], Sequence[Record]] = (),
     options: LoopOptions | None = None,
     probe_seconds: float = DEFAULT_PROBE_SECONDS,
+    deadline: Deadline | None = None,
 ) -> AutoResult:
     """Plan ``goal`` LLM-free for ``probe_seconds``; without a verdict, run the HBTP loop with the
     backend ``backend_factory()`` (closed afterwards) and ``pool`` (or ``pool()``, built only then)."""
@@ -87,9 +88,7 @@ def plan_auto(
         raise ValueError(f"the probe needs a positive number of seconds, not {probe_seconds}")
     options = options or LoopOptions()
     started = time.perf_counter()
-    deadline = math.inf if options.time_limit is None else started + options.time_limit
     scenario, resolved = scenario.resolve_goal(goal)
-    budget = min(probe_seconds, max(deadline - started, 1e-9))
     probe = plan(
         scenario.task,
         resolved,
@@ -97,21 +96,19 @@ def plan_auto(
         space=Space.FULL,
         mutexes=scenario.mutexes,  # plan() re-checks a failure without declared mutexes: a verdict is a proof
         heuristic=options.fallback_heuristic,
-        limits=Limits(time_s=budget),
+        limits=Limits(deadline=within(deadline, probe_seconds)),
     )
     probe_s = time.perf_counter() - started
     if probe.status in _VERDICTS:
         return AutoResult(probe, probe_seconds, probe_s, None)
-    left = deadline - time.perf_counter()
-    if left <= 0:  # no time to ask: do not build (or load) the backend
+    if expired(deadline):  # no time to ask: do not build (or load) the backend
         return AutoResult(probe, probe_seconds, probe_s, None)
     if options.progress is not None:
         options.progress(f"no verdict LLM-free in {probe_s:.2f} s ({probe.status.value}): asking the LLM")
-    loop_options = options if math.isinf(left) else dataclasses.replace(options, time_limit=left)
     backend = backend_factory()
     try:
         examples = pool() if callable(pool) else pool
-        loop = run_hbtp(scenario, resolved, backend, examples, loop_options)
+        loop = run_hbtp(scenario, resolved, backend, examples, options, deadline)
     finally:
         backend.close()
     return AutoResult(probe, probe_seconds, probe_s, loop)

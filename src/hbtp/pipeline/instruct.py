@@ -24,14 +24,13 @@ goal).
 from __future__ import annotations
 
 import logging
-import math
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import Any
 
 from hbtp.datasets.instructions import load_instructions
+from hbtp.deadline import Deadline, expired
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import BackendTimeLimit, InputError
 from hbtp.llm.backend import Backend, PromptStyle, Request
@@ -66,7 +65,6 @@ class InstructOptions:
     examples: int = 8  # demonstrations in the prompt
     constrain: bool = True  # constrained decoding (grammar / JSON schema)
     seed: int = 0
-    time_limit: float | None = None  # seconds for all the asking
     cover: bool = True  # extend a completion model's goal to the objects the instruction names
 
 
@@ -167,8 +165,10 @@ def goal_from_instruction(
     backend: Backend,
     pool: Sequence[Example] = (),
     options: InstructOptions = InstructOptions(),
+    deadline: Deadline | None = None,
 ) -> GoalChoice:
-    """Ask ``backend`` for the goal of ``instruction`` in ``scenario`` (see the module docstring).
+    """Ask ``backend`` for the goal of ``instruction`` in ``scenario`` (see the module docstring), all
+    of the asking by ``deadline``.
 
     Raises :class:`InputError` for an empty instruction or one about nothing the domain knows, and
     :class:`BackendError` when the model cannot be asked at all (:class:`BackendTimeLimit` when the
@@ -183,16 +183,14 @@ def goal_from_instruction(
     examples = [] if taught else similar_examples(text, pool, options.examples)
     if not taught and not _relevant(scenario, text, pool):
         raise InputError(f"the instruction {text[:80]!r} names no object of {scenario.name!r} and is like no known one")
-    deadline = math.inf if options.time_limit is None else time.perf_counter() + options.time_limit
     ask = partial(goal_request, task, text, examples, constrain=options.constrain, seed=options.seed, taught=taught)
     attempts: list[GoalAttempt] = []
     rejected: list[Rejected] = []
     spent = 0.0
     for number in range(options.rounds + 1):
-        left = deadline - time.perf_counter()
-        if left <= 0:
+        if expired(deadline):
             break
-        request = _limited(ask(rejected, round_number=number), left)
+        request = replace(ask(rejected, round_number=number), deadline=deadline)
         try:
             reply = backend.complete(request)
         except BackendTimeLimit:
@@ -220,7 +218,12 @@ def goal_from_instruction(
 
 
 def _cover(
-    scenario: Scenario, text: str, backend: Backend, request: Request, attempts: list[GoalAttempt], deadline: float
+    scenario: Scenario,
+    text: str,
+    backend: Backend,
+    request: Request,
+    attempts: list[GoalAttempt],
+    deadline: Deadline | None,
 ) -> float:
     """Extend an accepted conjunction with a literal for each object the instruction names and the
     goal leaves out (a small model stops after the first literal); a literal that draws an
@@ -235,15 +238,10 @@ def _cover(
         literals = parse_goal(goal)[0]
         used = {arg for atom in literals for arg in atom.args}
         offered = [a for a in atoms if missing in a.args and a not in literals]
-        if missing in used or not offered or time.perf_counter() >= deadline:
+        if missing in used or not offered or expired(deadline):
             continue
         try:
-            reply = backend.complete(
-                _limited(
-                    continuation_request(request, goal, offered, scenario.task.categories),
-                    deadline - time.perf_counter(),
-                )
-            )
+            reply = backend.complete(continuation_request(request, goal, offered, scenario.task.categories))
         except BackendTimeLimit:
             break
         spent += reply.seconds
@@ -256,10 +254,6 @@ def _cover(
         if not verdict.objections:
             goal = longer
     return spent
-
-
-def _limited(request: Request, seconds: float) -> Request:
-    return replace(request, time_limit=seconds if math.isfinite(seconds) else None)
 
 
 def _relevant(scenario: Scenario, text: str, pool: Sequence[Example]) -> bool:

@@ -15,23 +15,22 @@ question the backend has already answered at temperature 0 (it would answer the 
 retry whose prompt did not change is not sent: no call is wasted. Every call is counted and timed
 (``RoundRecord.calls``).
 
-``LoopOptions.time_limit`` bounds the whole run (``hbtp plan -t``): every LLM call gets the time
-that is left (``Request.time_limit``), every round's search at most that, no round starts once it is
-gone, and the fallback gets what remains (at most ``fallback_time_limit``); when nothing remains the
-result is a timeout.
+The ``deadline`` of :func:`run_hbtp` (the command's, ``hbtp plan -t``) bounds the whole run: every
+LLM call gets it (``Request.deadline``), every round's search it capped at ``round_time_limit``,
+grounding a part of the world it as is; no round starts once it passed, and the fallback gets what
+remains (at most ``fallback_time_limit``); when nothing remains the result is a timeout.
 """
 
 from __future__ import annotations
 
 import logging
-import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 from hbtp.datasets.records import Record
-from hbtp.deadline import Deadline, TimeLimitReached
+from hbtp.deadline import Deadline, TimeLimitReached, expired, seconds_left, within
 from hbtp.domains.pruned import GroundedWorld, World
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import BackendError
@@ -75,8 +74,6 @@ class LoopOptions:
     fallback_heuristic: HeuristicName = DEFAULT_HEURISTIC
     #: Its ``style`` (``None`` by default) is the backend's own prompt style.
     prompt: PromptOptions = field(default_factory=PromptOptions)
-    #: Seconds for the whole run (LLM calls, rounds and fallback); ``None``: no overall bound.
-    time_limit: float | None = None
     #: Told what the loop is doing (round k of N, tokens/s, planning); ``None``: logged at DEBUG.
     progress: Progress | None = None
 
@@ -118,15 +115,14 @@ class _Asker:
         self.blacklist: list[str] = []
         self.answered: set[str] = set()
 
-    def ask(self, request: Request, deadline: float) -> Exchange:
+    def ask(self, request: Request, deadline: Deadline | None) -> Exchange:
         prompts: list[Request] = []
         replies: list[str] = []
         calls: list[dict[str, Any]] = []
         check: GrammarCheck | None = None
         error = ""
         for attempt in range(self.retries + 1):
-            left = deadline - time.perf_counter()
-            if left <= 0:
+            if expired(deadline):
                 if not replies:
                     error = "the time limit ran out before the LLM was asked"
                 break
@@ -139,7 +135,7 @@ class _Asker:
             prompts.append(request)
             self.progress(f"asking {self.backend.name}" + _retry_note(attempt))
             try:
-                reply = self.backend.complete(request if math.isinf(left) else replace(request, time_limit=left))
+                reply = self.backend.complete(replace(request, deadline=deadline))
             except BackendError as failure:
                 error = redact(str(failure))
                 log.warning("round %d: the LLM failed: %s", request.round, error)
@@ -187,12 +183,16 @@ class _Loop:
     """One run of the loop: its state between rounds and its steps (round, fallback)."""
 
     def __init__(
-        self, world: World, goal: Goal, backend: Backend, pool: Sequence[Record], options: LoopOptions
+        self,
+        world: World,
+        goal: Goal,
+        backend: Backend,
+        pool: Sequence[Record],
+        options: LoopOptions,
+        deadline: Deadline | None,
     ) -> None:
-        started = time.perf_counter()
-        self.deadline = math.inf if options.time_limit is None else started + options.time_limit
-        #: The same bound for grounding a part of the world, or all of it.
-        self.limit = None if options.time_limit is None else Deadline(options.time_limit, started)
+        #: The whole run's deadline: every LLM call, every round (grounding and search), the fallback.
+        self.deadline = deadline
         self.world, self.names, self.goal = world, world.names, goal
         self.pool, self.options = pool, options
         self.prompt = options.prompt.for_backend(backend.prompt_style, taught=getattr(backend, "taught", False))
@@ -210,7 +210,7 @@ class _Loop:
         self.request = replace(request, resolved=goal)
 
     def left(self) -> float:
-        return self.deadline - time.perf_counter()
+        return seconds_left(self.deadline)
 
     def run(self) -> LoopResult:
         for number in range(self.options.feedback_rounds + 1):
@@ -246,7 +246,7 @@ class _Loop:
             return None
         started = time.perf_counter()
         try:
-            scenario = self.world.part(frozenset(self.hints.predicates), frozenset(self.hints.objects), self.limit)
+            scenario = self.world.part(frozenset(self.hints.predicates), frozenset(self.hints.objects), self.deadline)
         except TimeLimitReached as stop:
             log.info("round %d: %s", number, stop)
             return None
@@ -264,7 +264,7 @@ class _Loop:
             self.config,
             mutexes=scenario.mutexes,
             hints=hints,
-            limits=Limits(time_s=min(self.options.round_time_limit, self.left())),
+            limits=Limits(deadline=within(self.deadline, self.options.round_time_limit)),
         )
         self.planning_seconds += time.perf_counter() - started
         self.scenario = scenario
@@ -305,7 +305,7 @@ class _Loop:
         self.progress("fallback: planning in the full action space")
         started = time.perf_counter()
         try:
-            whole = self.world.whole(self.limit)
+            whole = self.world.whole(self.deadline)
         except TimeLimitReached as stop:
             timeout = PlanResult(Status.TIMEOUT, self.options.planner, self.goal, message=str(stop))
             return self.result(Outcome.FAILED, timeout)
@@ -320,7 +320,7 @@ class _Loop:
             space=Space.FULL,
             mutexes=whole.mutexes.proved_only(),
             heuristic=self.options.fallback_heuristic,
-            limits=Limits(time_s=min(self.options.fallback_time_limit, self.left())),
+            limits=Limits(deadline=within(self.deadline, self.options.fallback_time_limit)),
         )
         self.planning_seconds += time.perf_counter() - started
         return self.result(Outcome.FALLBACK if final.solved else Outcome.FAILED, final)
@@ -342,8 +342,9 @@ def run_hbtp(
     backend: Backend,
     pool: Sequence[Record] = (),
     options: LoopOptions = LoopOptions(),
+    deadline: Deadline | None = None,
 ) -> LoopResult:
-    """Plan ``goal`` with LLM hints, reflective feedback and the full-space fallback.
+    """Plan ``goal`` with LLM hints, reflective feedback and the full-space fallback, by ``deadline``.
 
     ``world`` is a grounded scenario, or a :class:`~hbtp.domains.pruned.PrunedWorld` that each round
     grounds only in the pruned space (and whole only for the fallback). The result's ``scenario``
@@ -353,4 +354,4 @@ def run_hbtp(
         world = GroundedWorld(world)
     if isinstance(goal, str):  # checked against the world's names, its static facts and its objects
         goal = world.part(frozenset(), frozenset()).resolve_goal(goal)[1]
-    return _Loop(world, goal, backend, pool, options).run()
+    return _Loop(world, goal, backend, pool, options, deadline).run()

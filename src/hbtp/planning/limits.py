@@ -51,21 +51,18 @@ class LimitWatch:
     def __init__(self, limits: Limits, started: float) -> None:
         self.limits = limits
         self.started = started  # the run's start (time.perf_counter())
-        self.deadline = started + limits.time_s if limits.time_s is not None else None
-        self.seconds = limits.time_s
+        own = None if limits.time_s is None else Deadline(limits.time_s, started, limits.memory_mb)
         shared = limits.deadline
-        if shared is not None and (self.deadline is None or shared.at < self.deadline):
-            self.deadline = shared.at
-            self.seconds = shared.seconds
+        #: The earlier of the run's own time limit and the command's deadline.
+        self.deadline = shared if own is None or (shared is not None and shared.at < own.at) else own
+        self.seconds = None if self.deadline is None else self.deadline.seconds
 
     def as_deadline(self) -> Deadline | None:
         """The time limit of this run as a :class:`Deadline` (for the heuristic set-up)."""
-        if self.deadline is None or self.seconds is None:
-            return None
-        return Deadline(self.seconds, self.deadline - self.seconds, self.limits.memory_mb)
+        return self.deadline
 
     def timed_out(self) -> bool:
-        return self.deadline is not None and time.perf_counter() >= self.deadline
+        return self.deadline is not None and time.perf_counter() >= self.deadline.at
 
     def check(self, expansions: int, generated: int) -> Status | None:
         if self.timed_out():

@@ -25,6 +25,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from hbtp.deadline import Deadline, expired
 from hbtp.errors import HbtpError, InputError
 from hbtp.train.examples import Example
 
@@ -219,12 +220,12 @@ def train(
     base_model: Path,
     work: Path,
     *,
-    deadline: float = math.inf,
+    deadline: Deadline | None = None,
     progress: Callable[[Iterator[int], int, int], Iterator[int]] | None = None,
 ) -> tuple[dict[str, Any], TrainReport]:
     """Train an adapter on ``examples``; its state (numpy arrays, peft's names) and a report.
 
-    ``work`` holds the checkpoint; ``deadline`` (a :func:`time.monotonic` value) stops the run with
+    ``work`` holds the checkpoint; ``deadline`` stops the run with
     a checkpoint (:class:`TrainingStopped`), as does Ctrl-C; ``progress(steps, start, total)``
     wraps the step counter (a progress bar)."""
     tokenizer, model = load_model(base_model, settings.threads)
@@ -245,9 +246,9 @@ def train(
         except KeyboardInterrupt:
             run.save(checkpoint, key)
             raise
-        if run.step % settings.checkpoint_every == 0 or time.monotonic() >= deadline:
+        if run.step % settings.checkpoint_every == 0 or expired(deadline):
             run.save(checkpoint, key)
-        if time.monotonic() >= deadline and run.step < len(plan):
+        if expired(deadline) and run.step < len(plan):
             raise TrainingStopped(
                 f"time limit reached after step {run.step} of {len(plan)}; the same command goes on from there"
             )

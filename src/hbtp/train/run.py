@@ -12,7 +12,6 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-import math
 import shutil
 import time
 from collections import Counter
@@ -21,6 +20,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from hbtp.deadline import Deadline
 from hbtp.domains import Scenario
 from hbtp.errors import InputError
 from hbtp.files import InputKind, read_text, write_atomically
@@ -157,7 +157,7 @@ def run_training(
 ) -> TrainOutcome:
     """Generate, train, write and judge (see the module docstring)."""
     started = time.monotonic()
-    deadline = math.inf if request.time_limit is None else started + request.time_limit
+    deadline = None if request.time_limit is None else Deadline(request.time_limit)
     scenario = request.scenario
     world = world_key(scenario.domain_file, scenario.problem_file)
     work = request.work or default_work / world

@@ -36,6 +36,7 @@ from pathlib import Path
 from types import ModuleType, TracebackType
 from typing import Any
 
+from hbtp.deadline import Deadline, expired
 from hbtp.errors import BackendError, BackendTimeLimit
 from hbtp.llm.backend import PromptStyle, Reply, Request
 
@@ -312,7 +313,7 @@ CHARACTERS_PER_TOKEN = 3.0
 FIRST_PROMPT_RATE = 150.0
 
 
-def _streamed(server: Any, body: dict[str, Any], deadline: float | None) -> dict[str, Any]:
+def _streamed(server: Any, body: dict[str, Any], deadline: Deadline | None) -> dict[str, Any]:
     """llama.cpp's answer to ``body`` read as a stream, stopped at ``deadline``
     (:class:`BackendError`): the text of its chunks, with the last chunk's usage and timings."""
     texts: list[str] = []
@@ -329,7 +330,7 @@ def _streamed(server: Any, body: dict[str, Any], deadline: float | None) -> dict
         texts.append(str(choice.get("text") or ""))
         final.update({key: value for key, value in chunk.items() if key != "choices"})
         final["finish_reason"] = choice.get("finish_reason")
-        stopped = deadline is not None and final["finish_reason"] is None and time.perf_counter() >= deadline
+        stopped = final["finish_reason"] is None and expired(deadline)
         return stopped
 
     server.handle_completions({**body, "stream": True, "stream_options": {"include_usage": True}}, take)
@@ -449,7 +450,7 @@ class LocalBackend:
     def complete(self, request: Request) -> Reply:
         """Continue ``request.completion_prompt``; raises :class:`BackendError` on any failure.
 
-        ``request.time_limit`` bounds the call: one that cannot finish in it is not started (a
+        ``request.deadline`` bounds the call: one that cannot finish in it is not started (a
         prompt that would take longer to read than the time left, at the speed of the last
         answers), and one that runs past it is stopped (:class:`BackendError` either way)."""
         prompt = request.completion_prompt
@@ -457,15 +458,14 @@ class LocalBackend:
             raise BackendError(
                 "the local model needs a completion-style prompt, but request.completion_prompt is empty"
             )
-        called = time.perf_counter()
-        if request.time_limit is not None and request.time_limit <= 0:
+        deadline = request.deadline
+        if deadline is not None and deadline.expired():
             raise BackendTimeLimit("no time was left to ask the local model")
         loaded_here = not self.loaded
         self.load()
         server = self._server
         if server is None:  # closed from another thread meanwhile
             raise BackendError("the local model was closed while a request was waiting")
-        deadline = None if request.time_limit is None else called + request.time_limit
         self._check_time(prompt, deadline)
         body: dict[str, Any] = {
             "prompt": prompt,
@@ -493,7 +493,7 @@ class LocalBackend:
         )
         return reply
 
-    def _answer(self, server: Any, body: dict[str, Any], deadline: float | None) -> Any:
+    def _answer(self, server: Any, body: dict[str, Any], deadline: Deadline | None) -> Any:
         """llama.cpp's answer to ``body``; a grammar it refuses is dropped (once, with a warning)
         and the request answered as free text, which the grammar checker reads as before."""
         try:
@@ -509,11 +509,11 @@ class LocalBackend:
             raise BackendError(f"the local model failed: {type(error).__name__}: {error}") from None
         return result
 
-    def _check_time(self, prompt: str, deadline: float | None) -> None:
+    def _check_time(self, prompt: str, deadline: Deadline | None) -> None:
         """Refuse a call whose prompt alone would take longer to read than the time left."""
         if deadline is None:
             return
-        left = deadline - time.perf_counter()
+        left = deadline.remaining()
         needed = len(prompt) / CHARACTERS_PER_TOKEN / self.prompt_rate
         if needed > left:
             raise BackendTimeLimit(

@@ -22,7 +22,7 @@ A server that refuses it (HTTP 400 or 422) is asked again at once without it, an
 again; ``response_format=False`` (``--no-response-format``) never sends one. A server that ignores
 it answers in text, which the grammar checker reads as before.
 
-Bounds: ``timeout`` (or the request's ``time_limit``, when smaller) bounds the *whole* call: the
+Bounds: ``timeout`` (or the request's ``deadline``, when sooner) bounds the *whole* call: the
 model list, every attempt, the backoff between them and the reading of the reply. Each attempt runs
 in a helper thread that is abandoned (and its connections closed) at the deadline, so a server that
 trickles its reply a few bytes at a time cannot hold the call past it. A reply body larger than
@@ -49,6 +49,7 @@ from types import ModuleType
 from typing import Any, TypeVar
 from urllib.parse import urlsplit
 
+from hbtp.deadline import Deadline, seconds_left, within
 from hbtp.errors import BackendError
 from hbtp.llm.backend import PromptStyle, Reply, Request
 from hbtp.llm.constrain import reply_from_json, response_format
@@ -155,7 +156,7 @@ def _retry_after(headers: Any) -> float | None:
         return None
 
 
-def _read_capped(chunks: Iterable[bytes], deadline: float, limit: int = MAX_REPLY_BYTES) -> bytes:
+def _read_capped(chunks: Iterable[bytes], deadline: Deadline, limit: int = MAX_REPLY_BYTES) -> bytes:
     """The body from ``chunks``; :class:`_Deadline` past ``deadline``, :class:`_TooLarge` past ``limit``."""
     parts: list[bytes] = []
     size = 0
@@ -164,7 +165,7 @@ def _read_capped(chunks: Iterable[bytes], deadline: float, limit: int = MAX_REPL
         if size > limit:
             raise _TooLarge
         parts.append(chunk)
-        if time.perf_counter() > deadline:
+        if deadline.expired():
             raise _Deadline
     return b"".join(parts)
 
@@ -247,12 +248,10 @@ class OpenAIBackend:
     def complete(self, request: Request) -> Reply:
         """Ask the server; the reply's ``seconds`` include retries, its ``meta`` the model and retry count.
 
-        The whole call ends within ``timeout`` (or ``request.time_limit`` when smaller)."""
+        The whole call ends within ``timeout`` (or by ``request.deadline`` when that is sooner)."""
         started = time.perf_counter()
-        limit = self.timeout
-        if request.time_limit is not None and request.time_limit < self.timeout:
-            limit = max(0.0, request.time_limit)
-        deadline = started + limit
+        limit = max(0.0, min(self.timeout, seconds_left(request.deadline)))
+        deadline = within(request.deadline, self.timeout) or Deadline(self.timeout, started)
         model = self._resolve_model(deadline, limit)
         arguments, endpoint = request_arguments(
             request, model, completions=self.use_completions, constrain=self.response_format
@@ -301,7 +300,7 @@ class OpenAIBackend:
         # The client's own retries are off: they would repeat timeouts too (see the module's doc).
         return self._openai.OpenAI(api_key=self._key, base_url=self.base_url, timeout=self.timeout, max_retries=0)
 
-    def _body(self, response: Any, deadline: float) -> Any:
+    def _body(self, response: Any, deadline: Deadline) -> Any:
         """The JSON of a streamed 2xx response, read within ``deadline`` and :data:`MAX_REPLY_BYTES`."""
         declared = response.headers.get("content-length")
         if declared and declared.isdigit() and int(declared) > MAX_REPLY_BYTES:
@@ -315,7 +314,7 @@ class OpenAIBackend:
                 f"(not JSON: {_one_line(error, 80)}); is the base URL an OpenAI-compatible /v1 endpoint?"
             ) from None
 
-    def _resolve_model(self, deadline: float, limit: float) -> str:
+    def _resolve_model(self, deadline: Deadline, limit: float) -> str:
         """The configured model, else the first one the server lists (asked once)."""
         if self.model is None:
             openai = self._openai
@@ -335,9 +334,9 @@ class OpenAIBackend:
             self.name = f"openai:{self.model}@{self.base_url}"
         return self.model
 
-    def _attempt(self, send: Callable[[Any, float], _T], deadline: float, limit: float) -> _T:
+    def _attempt(self, send: Callable[[Any, float], _T], deadline: Deadline, limit: float) -> _T:
         """``send(client, seconds left)`` in a helper thread, abandoned at ``deadline``."""
-        remaining = deadline - time.perf_counter()
+        remaining = deadline.remaining()
         if remaining <= 0:
             raise self._timeout(limit)
         client = self._client
@@ -376,7 +375,7 @@ class OpenAIBackend:
             "the server may be overloaded or the model too slow: raise --llm-timeout or use a smaller model"
         )
 
-    def _call(self, send: Callable[[Any, float], _T], *, what: str, deadline: float, limit: float) -> tuple[_T, int]:
+    def _call(self, send: Callable[[Any, float], _T], *, what: str, deadline: Deadline, limit: float) -> tuple[_T, int]:
         """``send`` with retries, all within ``deadline``; every failure becomes a :class:`BackendError`."""
         openai = self._openai
         retries = 0
@@ -403,7 +402,7 @@ class OpenAIBackend:
                 if retries >= self.max_retries:
                     raise failed from None
                 delay = self._backoff(retries, None)
-                if delay >= deadline - time.perf_counter():
+                if delay >= deadline.remaining():
                     raise failed from None  # no time left to retry
                 log.warning(
                     "connection to %s failed (%s); retry %d in %.1f s",
@@ -416,7 +415,7 @@ class OpenAIBackend:
                 status = error.status_code
                 if status in RETRY_STATUSES and retries < self.max_retries:
                     delay = self._backoff(retries, getattr(error.response, "headers", None))
-                    if delay >= deadline - time.perf_counter():
+                    if delay >= deadline.remaining():
                         raise status_error(error, what, retries, self.base_url) from None  # no time left to retry
                     log.warning("%s answered HTTP %d; retry %d in %.1f s", self.base_url, status, retries + 1, delay)
                 elif status == 400 and self._max_tokens_field == "max_tokens" and "max_completion_tokens" in str(error):
