@@ -8,14 +8,24 @@ from pathlib import Path
 
 import pytest
 
-from hbtp.bench import fig3, fig4, robustness, table1, table2
+from hbtp.bench.fig3 import Fig3Row
+from hbtp.bench.fig4 import Fig4Row
+from hbtp.bench.robustness import RobustnessRow
+from hbtp.bench.table1 import Table1Row
+from hbtp.bench.table2 import Table2Row
 from hbtp.cli import EXIT_INPUT, EXIT_OK, main
 from test_bench_runner import untimed
 
 QUICK = ["bench", "all", "--quick", "--llm", "oracle", "--no-progress"]
 
 
-KEYS = {"table1": table1.KEY, "table2": table2.KEY, "fig3": fig3.KEY, "fig4": fig4.KEY, "robustness": robustness.KEY}
+KEYS = {
+    "table1": Table1Row.KEY,
+    "table2": Table2Row.KEY,
+    "fig3": Fig3Row.KEY,
+    "fig4": Fig4Row.KEY,
+    "robustness": RobustnessRow.KEY,
+}
 
 
 #: Table II's B-Time columns: whether OBTEA finished within the B-Time limit (load-dependent).

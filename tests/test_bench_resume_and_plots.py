@@ -4,13 +4,14 @@ sub-part; the report credits the paper's authors."""
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import pytest
 
 from hbtp.bench import suite
-from hbtp.bench.results import ResultsFile
+from hbtp.bench.results import ResultsFile, Row
 from hbtp.bench.runner import Execution, Work, run_work
 from hbtp.bench.suite import SuiteConfig, run_suite
 from hbtp.bench.table1 import Table1Config, run_table1
@@ -88,12 +89,20 @@ def test_a_broken_seconds_file_is_an_input_error(tmp_path: Path, monkeypatch: py
         _run(tmp_path, ("table1",))
 
 
-def _double(spec: int) -> dict[str, Any]:
-    return {"n": spec, "twice": 2 * spec}
+@dataclass(frozen=True, kw_only=True)
+class Double(Row):
+    KEY = ("n",)
+
+    n: int
+    twice: int
+
+
+def _double(spec: int) -> Double:
+    return Double(n=spec, twice=2 * spec)
 
 
 def test_the_progress_bar_names_the_stage(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    results = ResultsFile(tmp_path / "results.jsonl", ("n",))
+    results = ResultsFile(tmp_path / "results.jsonl", Double)
     work = [Work((n,), n, {"n": n}, stage="first" if n < 2 else "second") for n in range(4)]
     run_work(_double, work, results, Execution("inline", progress=True), kill_after=10.0, description="demo")
     err = capsys.readouterr().err

@@ -24,7 +24,7 @@ from hbtp.errors import InputError
 from hbtp.llm.parse import hints_from_record
 from hbtp.logic.task import State
 from hbtp.planning import PlanResult, plan
-from hbtp.planning.heuristics import HeuristicName
+from hbtp.planning.heuristic_names import HeuristicName
 
 
 def _plans(

@@ -19,11 +19,12 @@ import stat
 import subprocess
 import sys
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 
-from hbtp.bench.results import ResultsFile, write_json
+from hbtp.bench.results import ResultsFile, Row, write_json
 from hbtp.cli import EXIT_INPUT, EXIT_NOT_SOLVED, EXIT_OK, main
 from hbtp.domains import Scenario
 from hbtp.errors import BackendError, InputError, PddlError
@@ -193,10 +194,18 @@ def test_the_writers_check_the_target_again_when_they_write(kind: str, tmp_path:
     _untouched(tmp_path, target, before)
 
 
+@dataclass(frozen=True, kw_only=True)
+class IdRow(Row):
+    """A benchmark row of one field, its key."""
+
+    KEY = ("id",)
+    id: int
+
+
 def test_a_benchmark_folder_may_be_created_but_its_files_are_regular(tmp_path: Path) -> None:
     out = tmp_path / "bench" / "run"
-    results = ResultsFile(out / "results.jsonl", ["id"])
-    results.append({"id": 1})  # the folder is created (bench -o DIR documents it)
+    results = ResultsFile(out / "results.jsonl", IdRow)
+    results.append(IdRow(id=1))  # the folder is created (bench -o DIR documents it)
     write_json(out / "summary.json", {"a": 1})
     assert json.loads((out / "summary.json").read_text(encoding="utf-8")) == {"a": 1}
     victim = tmp_path / "victim.txt"
@@ -207,7 +216,7 @@ def test_a_benchmark_folder_may_be_created_but_its_files_are_regular(tmp_path: P
     (out / "results.jsonl").unlink()
     (out / "results.jsonl").symlink_to(victim)
     with pytest.raises(InputError, match="symbolic link"):
-        results.append({"id": 2})
+        results.append(IdRow(id=2))
     assert victim.read_text(encoding="utf-8") == "keep me\n"
 
 

@@ -28,7 +28,7 @@ from hbtp.domains import DomainBuilder
 from hbtp.domains.scenarios import load_pddl_scenario
 from hbtp.logic.task import GroundTask
 from hbtp.planning import plan
-from hbtp.planning.heuristics import HeuristicName
+from hbtp.planning.heuristic_names import HeuristicName
 from hbtp.planning.hints import Hints
 from hbtp.planning.planners import planner_config
 from hbtp.planning.symmetry import find_symmetry

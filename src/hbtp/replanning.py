@@ -52,7 +52,7 @@ from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError
 from hbtp.logic.execution import Disturbance, NodeStatus, Run, Trace, execute
 from hbtp.logic.task import Goal, GoalIds, GroundAction, GroundTask, State
-from hbtp.planning.heuristics import DEFAULT_HEURISTIC, HeuristicName
+from hbtp.planning.heuristic_names import DEFAULT_HEURISTIC, HeuristicName
 from hbtp.planning.limits import Limits
 from hbtp.planning.planners import confirmed_search, planner_config
 from hbtp.planning.repair import RepairableSearch, repairable

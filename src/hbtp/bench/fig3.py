@@ -19,17 +19,16 @@ from typing import Any
 from hbtp.bench.paper import paper_scaled, paper_scenario
 from hbtp.bench.plots import plot_fig3
 from hbtp.bench.report import fig3_section, write_report
-from hbtp.bench.results import ResultsFile, mean, median, write_json
+from hbtp.bench.results import ResultsFile, Row, mean, median, optional, write_json
 from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, hard_limit, run_work
 from hbtp.datasets import load_dataset, validate_records
 from hbtp.datasets.records import Record
 from hbtp.llm.parse import hints_from_record
 from hbtp.planning import Limits, plan
-from hbtp.planning.heuristics import HeuristicName
+from hbtp.planning.heuristic_names import HeuristicName
 from hbtp.planning.planners import Space
 
 DATASET = "table1_robothow_100"
-KEY = ("scale", "task", "planner", "space", "heuristic")
 HINTED = ("hbtp-o", "hbtp-s")
 
 
@@ -38,9 +37,30 @@ class Fig3Config:
     scales: tuple[float, ...] = (1.0, 1.5, 2.0, 2.5, 3.0)
     planners: tuple[str, ...] = ("bte", "obtea", "hbtp-o", "hbtp-s")
     space: Space = Space.FULL
-    heuristic: HeuristicName = "none"
+    heuristic: HeuristicName = HeuristicName.NONE
     time_limit: float = 5.0
     limit: int | None = 20
+
+
+@dataclass(frozen=True, kw_only=True)
+class Fig3Row(Row):
+    """One planner on one task at one scale. A killed run's row has no ``actions`` or
+    ``action_space``, and ``None`` for ``explored``."""
+
+    KEY = ("scale", "task", "planner", "space", "heuristic")
+
+    scale: float
+    task: str
+    p_star: int
+    planner: str
+    space: str
+    heuristic: str
+    status: str
+    solved: bool
+    time_s: float
+    explored: int | None
+    actions: int | None = optional()
+    action_space: int | None = optional()
 
 
 @dataclass(frozen=True)
@@ -61,7 +81,7 @@ def run_fig3(config: Fig3Config, out: Path, execution: Execution = DEFAULT_EXECU
     records = load_dataset(DATASET)
     invalid = set(validate_records(records, base.task).invalid_ids)
     records = [r for r in records if r.id not in invalid][: config.limit]
-    results = ResultsFile(out / "results.jsonl", KEY)
+    results = ResultsFile(out / "results.jsonl", Fig3Row)
     work = [
         Work(
             (scale, record.id, planner, config.space, config.heuristic),
@@ -98,7 +118,7 @@ def run_fig3(config: Fig3Config, out: Path, execution: Execution = DEFAULT_EXECU
 _scaled = functools.lru_cache(maxsize=2)(paper_scaled)
 
 
-def run_one(run: Fig3Run) -> dict[str, Any]:
+def run_one(run: Fig3Run) -> Fig3Row:
     """Plan one task in RobotHow grown ``run.scale`` times."""
     scenario = _scaled("robothow", run.scale)
     record = run.record
@@ -113,54 +133,60 @@ def run_one(run: Fig3Run) -> dict[str, Any]:
         heuristic=run.heuristic,
         limits=Limits(time_s=run.time_limit),
     )
+    return Fig3Row(
+        scale=run.scale,
+        actions=len(scenario.task.actions),
+        task=record.id,
+        p_star=len(record.optimal_actions),
+        planner=run.planner,
+        space=run.space,
+        heuristic=run.heuristic,
+        action_space=result.stats.action_space,
+        status=result.status.value,
+        solved=result.solved,
+        explored=result.stats.explored,
+        time_s=round(result.stats.time_s, 6),
+    )
+
+
+def _by_size(rows: Sequence[Fig3Row], scale: float, planner: str) -> dict[str, Any]:
+    """(a): one planner at one scale (``rows`` its rows)."""
+    times = [r.time_s for r in rows]
     return {
-        "scale": run.scale,
-        "actions": len(scenario.task.actions),
-        "task": record.id,
-        "p_star": len(record.optimal_actions),
-        "planner": run.planner,
-        "space": run.space,
-        "heuristic": run.heuristic,
-        "action_space": result.stats.action_space,
-        "status": result.status.value,
-        "solved": result.solved,
-        "explored": result.stats.explored,
-        "time_s": round(result.stats.time_s, 6),
+        "scale": scale,
+        "actions": next((r.actions for r in rows if r.actions is not None), None),
+        "planner": planner,
+        "tasks": len(rows),
+        "solved": sum(r.solved for r in rows),
+        "mean_time_s": mean(times),
+        "median_time_s": median(times),
     }
 
 
-def summarise(rows: Sequence[dict[str, Any]], config: Fig3Config) -> dict[str, Any]:
+def _by_length(rows: Sequence[Fig3Row], planner: str, length: int) -> dict[str, Any]:
+    """(b): one planner on the tasks of one |p*| at the first scale (``rows`` its rows)."""
+    return {
+        "planner": planner,
+        "p_star": length,
+        "tasks": len(rows),
+        "solved": sum(r.solved for r in rows),
+        "mean_time_s": mean(r.time_s for r in rows),
+    }
+
+
+def summarise(rows: Sequence[Fig3Row], config: Fig3Config) -> dict[str, Any]:
     by_size = []
     for scale in config.scales:
         for planner in config.planners:
-            mine = [r for r in rows if r["scale"] == scale and r["planner"] == planner]
-            if not mine:
-                continue
-            by_size.append(
-                {
-                    "scale": scale,
-                    "actions": next((r["actions"] for r in mine if "actions" in r), None),
-                    "planner": planner,
-                    "tasks": len(mine),
-                    "solved": sum(r["solved"] for r in mine),
-                    "mean_time_s": mean([r["time_s"] for r in mine]),
-                    "median_time_s": median([r["time_s"] for r in mine]),
-                }
-            )
-    by_length = []
-    base = [r for r in rows if r["scale"] == config.scales[0]]
-    for planner in config.planners:
-        for length in sorted({r["p_star"] for r in base}):
-            mine = [r for r in base if r["planner"] == planner and r["p_star"] == length]
-            by_length.append(
-                {
-                    "planner": planner,
-                    "p_star": length,
-                    "tasks": len(mine),
-                    "solved": sum(r["solved"] for r in mine),
-                    "mean_time_s": mean([r["time_s"] for r in mine]),
-                }
-            )
+            mine = [r for r in rows if r.scale == scale and r.planner == planner]
+            if mine:
+                by_size.append(_by_size(mine, scale, planner))
+    base = [r for r in rows if r.scale == config.scales[0]]
+    by_length = [
+        _by_length([r for r in base if r.planner == planner and r.p_star == length], planner, length)
+        for planner in config.planners
+        for length in sorted({r.p_star for r in base})
+    ]
     return {
         "dataset": DATASET,
         "config": {

@@ -19,7 +19,7 @@ from typing import Any
 from hbtp.bench.paper import paper_scenario
 from hbtp.bench.plots import plot_fig4
 from hbtp.bench.report import fig4_section, write_report
-from hbtp.bench.results import ResultsFile, mean, write_json
+from hbtp.bench.results import ResultsFile, Row, mean, optional, write_json
 from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, hard_limit, run_work
 from hbtp.datasets import load_dataset, validate_records
 from hbtp.datasets.records import Record
@@ -27,12 +27,12 @@ from hbtp.llm.parse import hints_from_record
 from hbtp.logic.tables import TaskTable
 from hbtp.logic.task import GroundAction, GroundTask
 from hbtp.planning import Hints, Limits, planner_config, pruned_action_space, resolve_hints, search
+from hbtp.planning.heuristic_names import HeuristicName
 from hbtp.planning.hints import PathNoise, seeded_random
 from hbtp.planning.result import PlanResult
 
 DATASET = "table1_robothow_100"
 SCENARIO = "robothow"
-KEY = ("task", "planner", "correct", "error", "seed")
 
 
 @dataclass(frozen=True)
@@ -51,6 +51,28 @@ def noisy_path(record: Record, candidates: Sequence[str], correct: float, error:
     optimal = record.optimal_actions
     wrong = sorted(set(candidates) - set(optimal)) or sorted(candidates)
     return PathNoise(correct, error).apply(optimal, wrong, seeded_random("fig4", record.id, correct, error, seed))
+
+
+@dataclass(frozen=True, kw_only=True)
+class Fig4Row(Row):
+    """One planner with one noisy p̂ on one task. A killed run's row has no ``p_star``, ``p_hat`` or
+    ``action_space``, and ``None`` for ``explored`` and ``cost``."""
+
+    KEY = ("task", "planner", "correct", "error", "seed")
+
+    task: str
+    planner: str
+    correct: float
+    error: float
+    seed: int
+    status: str
+    solved: bool
+    time_s: float
+    explored: int | None
+    cost: int | None
+    p_star: int | None = optional()
+    p_hat: int | None = optional()
+    action_space: int | None = optional()
 
 
 @dataclass(frozen=True)
@@ -72,7 +94,7 @@ def run_fig4(config: Fig4Config, out: Path, execution: Execution = DEFAULT_EXECU
     records = load_dataset(DATASET)
     invalid = set(validate_records(records, scenario.task).invalid_ids)
     records = [r for r in records if r.id not in invalid][: config.limit]
-    results = ResultsFile(out / "results.jsonl", KEY)
+    results = ResultsFile(out / "results.jsonl", Fig4Row)
     work = [
         Work(
             (record.id, planner, correct, error, seed),
@@ -113,7 +135,7 @@ def _pruned_space(task: GroundTask, record: Record) -> tuple[GroundAction, ...]:
     return _PRUNED_SPACES.of(task, build, key=record)
 
 
-def run_one(run: Fig4Run) -> dict[str, Any]:
+def run_one(run: Fig4Run) -> Fig4Row:
     """Plan one task with a noisy p̂ in the record's pruned space."""
     scenario = paper_scenario(SCENARIO)
     task = scenario.task
@@ -124,7 +146,7 @@ def run_one(run: Fig4Run) -> dict[str, Any]:
         task,
         task.resolve_goal(record.goal),
         space,
-        planner_config(run.planner, heuristic="none"),
+        planner_config(run.planner, heuristic=HeuristicName.NONE),
         mutexes=scenario.mutexes,
         hints=resolve_hints(task, Hints(tuple(path))),
         limits=Limits(time_s=run.time_limit),
@@ -134,43 +156,48 @@ def run_one(run: Fig4Run) -> dict[str, Any]:
 
 def _row(
     record: Record, planner: str, correct: float, error: float, seed: int, path: Sequence[str], result: PlanResult
-) -> dict[str, Any]:
+) -> Fig4Row:
+    return Fig4Row(
+        task=record.id,
+        planner=planner,
+        correct=correct,
+        error=error,
+        seed=seed,
+        p_star=len(record.optimal_actions),
+        p_hat=len(path),
+        solved=result.solved,
+        status=result.status.value,
+        explored=result.stats.explored,
+        cost=result.cost,
+        time_s=round(result.stats.time_s, 6),
+        action_space=result.stats.action_space,
+    )
+
+
+def _cell(rows: Sequence[Fig4Row], planner: str, error: float, correct: float) -> dict[str, Any]:
+    """One planner at one (error rate, correct rate): ``rows`` are its runs."""
+    solved = [r for r in rows if r.solved]
     return {
-        "task": record.id,
         "planner": planner,
-        "correct": correct,
         "error": error,
-        "seed": seed,
-        "p_star": len(record.optimal_actions),
-        "p_hat": len(path),
-        "solved": result.solved,
-        "status": result.status.value,
-        "explored": result.stats.explored,
-        "cost": result.cost,
-        "time_s": round(result.stats.time_s, 6),
-        "action_space": result.stats.action_space,
+        "correct": correct,
+        "runs": len(rows),
+        "solved": len(solved),
+        "mean_explored": mean(r.explored for r in solved),
+        "mean_cost": mean(r.cost for r in solved),
+        "mean_time_s": mean(r.time_s for r in rows),
     }
 
 
-def summarise(rows: Sequence[dict[str, Any]], config: Fig4Config) -> dict[str, Any]:
-    cells = []
-    for planner in config.planners:
-        for error in config.error_rates:
-            for correct in config.correct_rates:
-                mine = [r for r in rows if (r["planner"], r["error"], r["correct"]) == (planner, error, correct)]
-                solved = [r for r in mine if r["solved"]]
-                cells.append(
-                    {
-                        "planner": planner,
-                        "error": error,
-                        "correct": correct,
-                        "runs": len(mine),
-                        "solved": len(solved),
-                        "mean_explored": mean([r["explored"] for r in solved]),
-                        "mean_cost": mean([r["cost"] for r in solved]),
-                        "mean_time_s": mean([r["time_s"] for r in mine]),
-                    }
-                )
+def summarise(rows: Sequence[Fig4Row], config: Fig4Config) -> dict[str, Any]:
+    cells = [
+        _cell(
+            [r for r in rows if (r.planner, r.error, r.correct) == (planner, error, correct)], planner, error, correct
+        )
+        for planner in config.planners
+        for error in config.error_rates
+        for correct in config.correct_rates
+    ]
     return {
         "dataset": DATASET,
         "config": {

@@ -22,13 +22,13 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from hbtp.bench.paper import paper_scenario
-from hbtp.bench.results import ResultsFile, mean, median, write_json
+from hbtp.bench.results import ResultsFile, Row, mean, median, write_json
 from hbtp.bt import full_tree
 from hbtp.bt.disturb import exactly_one_groups
 from hbtp.bt.simulate import simulate
@@ -42,10 +42,10 @@ from hbtp.logic.goals import parse_goal
 from hbtp.logic.task import GroundTask
 from hbtp.pipeline.instruct import InstructOptions, goal_from_instruction, instruction_pool
 from hbtp.planning import Limits, plan
+from hbtp.planning.heuristic_names import HeuristicName
 
 log = logging.getLogger(__name__)
 
-KEY = ("scenario", "id", "phrasing")
 Normal = frozenset[frozenset[str]]
 
 
@@ -104,32 +104,83 @@ def holds_by_name(task: GroundTask, terms: Sequence[Sequence[Atom]], state: froz
     return any(all((task.spelled(a).positive in present) != a.negated for a in term) for term in terms)
 
 
+@dataclass(frozen=True, kw_only=True)
+class InstructionRow(Row):
+    """One phrasing of one instruction: the goal produced, how it compares with the intended one,
+    and whether the tree planned for it reached the intended goal (see the module's documentation)."""
+
+    KEY = ("scenario", "id", "phrasing")
+
+    scenario: str
+    id: str
+    phrasing: int
+    kind: str
+    instruction: str
+    intended: str
+    produced: str | None
+    well_formed: bool
+    rejected: bool
+    exact: bool
+    equivalent: bool
+    reached: bool
+    rounds: int
+    llm_s: float
+    message: str
+    seconds: float
+
+
 def run_row(
     scenario: Scenario, record: InstructionRecord, phrasing: int, backend: Backend, bench: InstructionsBench
-) -> dict[str, Any]:
+) -> InstructionRow:
     """One instruction: its goal, compared with the intended one, and the planned tree's outcome."""
-    text = record.instructions[phrasing]
+    started = time.perf_counter()
+    asked = InstructionRow(
+        scenario=scenario.name,
+        id=record.id,
+        phrasing=phrasing,
+        kind=kind_of(record),
+        instruction=record.instructions[phrasing],
+        intended=record.goal,
+        produced=None,
+        well_formed=False,
+        rejected=True,
+        exact=False,
+        equivalent=False,
+        reached=False,
+        rounds=0,
+        llm_s=0.0,
+        message="",
+        seconds=0.0,
+    )
+    row = _answered(scenario, record, backend, bench, asked)
+    return replace(row, seconds=round(time.perf_counter() - started, 6))
+
+
+def _answered(
+    scenario: Scenario, record: InstructionRecord, backend: Backend, bench: InstructionsBench, row: InstructionRow
+) -> InstructionRow:
+    """``row`` (nothing produced yet) with the backend's goal and its judgement; a backend that
+    fails gives its message."""
     pool = instruction_pool(scenario, frozenset({record.id}))
-    row: dict[str, Any] = {"scenario": scenario.name, "id": record.id, "phrasing": phrasing, "kind": kind_of(record)}
-    row.update(instruction=text, intended=record.goal)
     try:
-        choice = goal_from_instruction(scenario, text, backend, pool, InstructOptions(rounds=bench.rounds))
+        choice = goal_from_instruction(scenario, row.instruction, backend, pool, InstructOptions(rounds=bench.rounds))
     except HbtpError as error:
-        return {**row, "produced": None, "well_formed": False, "rejected": True, "exact": False,
-                "equivalent": False, "rounds": 0, "llm_s": 0.0, "reached": False, "message": str(error)}  # fmt: skip
+        return replace(row, message=str(error))
     intended = parse_goal(record.goal)
-    row.update(produced=choice.goal, rounds=len(choice.attempts), llm_s=round(choice.llm_seconds, 6))
-    row.update(well_formed=choice.goal is not None, rejected=choice.goal is None, message=choice.message)
+    row = replace(row, produced=choice.goal, rounds=len(choice.attempts), llm_s=round(choice.llm_seconds, 6))
+    row = replace(row, well_formed=choice.goal is not None, rejected=choice.goal is None, message=choice.message)
     if choice.goal is None:
         # Refusing a goal that already holds is the right answer when that goal is the intended one.
         right = choice.holding is not None and _same(scenario, parse_goal(choice.holding), intended, False)
         same = choice.holding is not None and _same(scenario, parse_goal(choice.holding), intended, True)
-        return {**row, "exact": right, "equivalent": same, "reached": right}
+        return replace(row, exact=right, equivalent=same, reached=right)
     produced = parse_goal(choice.goal)
-    row["exact"] = normal_form(scenario, produced, False) == normal_form(scenario, intended, False)
-    row["equivalent"] = normal_form(scenario, produced, True) == normal_form(scenario, intended, True)
-    row["reached"] = _reached(scenario, choice.goal, intended, bench.plan_time_limit)
-    return row
+    return replace(
+        row,
+        exact=_same(scenario, produced, intended, False),
+        equivalent=_same(scenario, produced, intended, True),
+        reached=_reached(scenario, choice.goal, intended, bench.plan_time_limit),
+    )
 
 
 def _same(scenario: Scenario, left: Sequence[Sequence[Atom]], right: Sequence[Sequence[Atom]], mutexes: bool) -> bool:
@@ -138,7 +189,14 @@ def _same(scenario: Scenario, left: Sequence[Sequence[Atom]], right: Sequence[Se
 
 def _reached(scenario: Scenario, produced: str, intended: Sequence[Sequence[Atom]], seconds: float) -> bool:
     extended, goal = scenario.resolve_goal(produced)
-    result = plan(extended.task, goal, "obtea", mutexes=extended.mutexes, heuristic="lm", limits=Limits(time_s=seconds))
+    result = plan(
+        extended.task,
+        goal,
+        "obtea",
+        mutexes=extended.mutexes,
+        heuristic=HeuristicName.LM,
+        limits=Limits(time_s=seconds),
+    )
     if not result.solved:
         return False
     run = simulate(full_tree(result.expansions), extended.task)
@@ -147,7 +205,7 @@ def _reached(scenario: Scenario, produced: str, intended: Sequence[Sequence[Atom
 
 def run_instructions(bench: InstructionsBench, make: Any, out: Path) -> dict[str, Any]:
     """Run the benchmark (rows already in ``out/results.jsonl`` are kept) and write the summary."""
-    results = ResultsFile(out / "results.jsonl", KEY)
+    results = ResultsFile(out / "results.jsonl", InstructionRow)
     keys: list[tuple[Any, ...]] = []
     for name in bench.scenarios:
         scenario = paper_scenario(name)
@@ -160,13 +218,7 @@ def run_instructions(bench: InstructionsBench, make: Any, out: Path) -> dict[str
                     if key in results:
                         continue
                     backend = backend or make(scenario)
-                    started = time.perf_counter()
-                    results.append(
-                        {
-                            **run_row(scenario, record, phrasing, backend, bench),
-                            "seconds": round(time.perf_counter() - started, 6),
-                        }
-                    )
+                    results.append(run_row(scenario, record, phrasing, backend, bench))
         finally:
             if backend is not None:
                 backend.close()
@@ -177,32 +229,35 @@ def run_instructions(bench: InstructionsBench, make: Any, out: Path) -> dict[str
     return summary
 
 
-def summarise(rows: Sequence[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+KINDS = ("test-set", "disjunctive", "negative", "written")
+
+
+def summarise(rows: Sequence[InstructionRow]) -> dict[str, dict[str, Any]]:
     """Per scenario and per kind: the shares of exact, equivalent, well-formed and reached rows."""
     table: dict[str, dict[str, Any]] = {}
-    for name in dict.fromkeys(r["scenario"] for r in rows):
-        mine = [r for r in rows if r["scenario"] == name]
+    for name in dict.fromkeys(r.scenario for r in rows):
+        mine = [r for r in rows if r.scenario == name]
         table[name] = {"all": _figures(mine)}
-        for kind in ("test-set", "disjunctive", "negative", "written"):
-            chosen = [r for r in mine if r["kind"] == kind]
+        for kind in KINDS:
+            chosen = [r for r in mine if r.kind == kind]
             if chosen:
                 table[name][kind] = _figures(chosen)
     return table
 
 
-def _figures(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
-    def share(field: str) -> float:
-        return round(100 * sum(bool(r[field]) for r in rows) / len(rows), 1)
+def _figures(rows: Sequence[InstructionRow]) -> dict[str, Any]:
+    def share(flags: Iterable[bool]) -> float:
+        return round(100 * sum(flags) / len(rows), 1)
 
     return {
         "instructions": len(rows),
-        "exact_pct": share("exact"),
-        "equivalent_pct": share("equivalent"),
-        "well_formed_pct": share("well_formed"),
-        "rejected_pct": share("rejected"),
-        "reached_pct": share("reached"),
-        "mean_rounds": mean([r["rounds"] for r in rows]),
-        "median_llm_s": median([r["llm_s"] for r in rows]),
+        "exact_pct": share(r.exact for r in rows),
+        "equivalent_pct": share(r.equivalent for r in rows),
+        "well_formed_pct": share(r.well_formed for r in rows),
+        "rejected_pct": share(r.rejected for r in rows),
+        "reached_pct": share(r.reached for r in rows),
+        "mean_rounds": mean(r.rounds for r in rows),
+        "median_llm_s": median(r.llm_s for r in rows),
     }
 
 
@@ -225,4 +280,12 @@ def report(summary: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["InstructionsBench", "holds_by_name", "kind_of", "normal_form", "run_instructions", "run_row"]
+__all__ = [
+    "InstructionRow",
+    "InstructionsBench",
+    "holds_by_name",
+    "kind_of",
+    "normal_form",
+    "run_instructions",
+    "run_row",
+]

@@ -39,8 +39,8 @@ from typing import Any
 
 from hbtp.bench.paper import paper_options, paper_scaled, paper_scenario
 from hbtp.bench.plots import plot_payoff
-from hbtp.bench.report import _table, write_report
-from hbtp.bench.results import ResultsFile, median, write_json
+from hbtp.bench.report import PAYOFF_PHASES, payoff_section, write_report
+from hbtp.bench.results import JsonObject, ResultsFile, Row, median, optional, write_json
 from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, run_work
 from hbtp.bench.table2 import BackendRecipe
 from hbtp.bt import tree_of
@@ -61,6 +61,7 @@ from hbtp.memory import resident_mb
 from hbtp.pipeline import LoopOptions, run_hbtp
 from hbtp.planning import Limits, PlanResult, plan, release_search_memory
 from hbtp.planning.generate import LEVELS, Sampling, generate_records
+from hbtp.planning.heuristic_names import HeuristicName
 
 SIZE_DATASET = "table1_robothow_100"
 #: The Table II sets in order of difficulty (mean |p*| 2.46, 4.54, 6.50, 8.70).
@@ -68,7 +69,6 @@ SETS = ("robowaiter", "robothow-small", "virtualhome", "robothow")
 LLM_FREE = ("obtea+lm", "hbtp-s+lm")
 #: Backends whose answers come from a planner, not a model: their time is not model time.
 ORACLES = ("oracle", "noisy-oracle")
-KEY = ("axis", "cell", "task", "config")
 #: The prefix of a configuration that prunes the world before grounding it.
 PRUNED = "hbtp-pruned:"
 
@@ -103,6 +103,56 @@ class PayoffConfig:
     def configs(self) -> tuple[str, ...]:
         pruned = tuple(f"{PRUNED}{b}" for b in self.backends) if self.pruned else ()
         return (*LLM_FREE, *(f"hbtp:{b}" for b in self.backends), *pruned)
+
+
+@dataclass(frozen=True, kw_only=True)
+class PayoffRow(Row):
+    """One task in one world with one configuration. The HBTP loop's rows also have ``backend_s``,
+    ``backend_setup_s``, ``outcome`` and ``rounds``, those of a world pruned before grounding
+    ``grounded_whole``. A killed run's row has the fields known before it ran, with ``status`` and
+    ``time_s``."""
+
+    KEY = ("axis", "cell", "task", "config")
+
+    axis: str
+    cell: str
+    scale: float
+    scenario: str
+    task: str
+    p_star: int
+    config: str
+    status: str
+    solved: bool
+    cost: int | None = None
+    actions: int | None = optional()
+    load_kind: str | None = optional()
+    verified: bool | None = optional()
+    explored: int | None = optional()
+    load_s: float | None = optional()
+    model_s: float | None = optional()
+    planning_s: float | None = optional()
+    verify_s: float | None = optional()
+    solve_s: float | None = optional()
+    total_s: float | None = optional()
+    backend_s: float | None = optional()
+    backend_setup_s: float | None = optional()
+    outcome: str | None = optional()
+    rounds: int | None = optional()
+    grounded_whole: bool | None = optional()
+    resident_mb: int | None = optional()
+    time_s: float | None = optional()
+
+    @property
+    def phases(self) -> dict[str, float | None]:
+        """The seconds of each of :data:`~hbtp.bench.report.PAYOFF_PHASES`."""
+        return {
+            "total_s": self.total_s,
+            "solve_s": self.solve_s,
+            "load_s": self.load_s,
+            "model_s": self.model_s,
+            "planning_s": self.planning_s,
+            "verify_s": self.verify_s,
+        }
 
 
 def _guided(config: str) -> bool:
@@ -194,40 +244,67 @@ def verified_tree(result: PlanResult, task: GroundTask, goal: Goal) -> bool:
     return check.ok and simulate(tree, task).reached(goal)
 
 
-def _plan(run: PayoffRun, scenario: Scenario, goal: Goal) -> tuple[PlanResult, dict[str, Any]]:
-    """Plan with the run's configuration: the result and its time and LLM fields."""
+@dataclass(frozen=True)
+class Planned:
+    """A planning call: its result, its seconds without the model's, and the model's; for the HBTP
+    loop also the backend's seconds (an oracle's included), its setup's, the outcome and the rounds."""
+
+    result: PlanResult
+    planning_s: float
+    model_s: float
+    backend_s: float | None = None
+    backend_setup_s: float | None = None
+    outcome: str | None = None
+    rounds: int | None = None
+
+
+@dataclass(frozen=True)
+class Loaded:
+    """Where a run planned: the scenario of its tree and its goal, the world's grounded (or listed)
+    actions, the seconds the world took to load and how it was loaded; for a world pruned before
+    grounding, whether the whole world was grounded after all (the fallback)."""
+
+    scenario: Scenario
+    goal: Goal
+    actions: int
+    load_s: float
+    load_kind: str
+    grounded_whole: bool | None = None
+
+
+def _plan(run: PayoffRun, scenario: Scenario, goal: Goal) -> Planned:
+    """Plan with the run's configuration."""
     started = time.perf_counter()
     if run.recipe is None:
         planner = run.config.removesuffix("+lm")
         limits = Limits(time_s=run.time_limit)
-        result = plan(scenario.task, goal, planner, mutexes=scenario.mutexes, heuristic="lm", limits=limits)
-        return result, {"planning_s": time.perf_counter() - started, "model_s": 0.0}
-    result, fields, _ = _guide(run, scenario, scenario, goal)
-    return result, fields
+        result = plan(scenario.task, goal, planner, mutexes=scenario.mutexes, heuristic=HeuristicName.LM, limits=limits)
+        return Planned(result, planning_s=time.perf_counter() - started, model_s=0.0)
+    return _guide(run, scenario, scenario, goal)[0]
 
 
 def _guide(
     run: PayoffRun, world: Scenario | PrunedWorld, backend_world: Scenario, goal: Goal | str
-) -> tuple[PlanResult, dict[str, Any], Scenario]:
-    """The HBTP loop in ``world``: the result, its time and LLM fields, and the scenario of its tree."""
+) -> tuple[Planned, Scenario]:
+    """The HBTP loop in ``world``: the planning call, and the scenario of its tree."""
     assert run.recipe is not None
     backend, setup = _backend(run.recipe, backend_world)
     started = time.perf_counter()
     loop = run_hbtp(world, goal, backend, _pool(run.world.scenario), run.loop)
     wall = time.perf_counter() - started
-    model = 0.0 if run.recipe.llm in ORACLES else loop.llm_seconds
-    fields = {
-        "planning_s": wall - loop.llm_seconds,
-        "model_s": model,
-        "backend_s": loop.llm_seconds,
-        "backend_setup_s": setup,
-        "outcome": loop.outcome.label,
-        "rounds": len(loop.rounds),
-    }
-    return loop.result, fields, loop.scenario
+    planned = Planned(
+        loop.result,
+        planning_s=wall - loop.llm_seconds,
+        model_s=0.0 if run.recipe.llm in ORACLES else loop.llm_seconds,
+        backend_s=loop.llm_seconds,
+        backend_setup_s=setup,
+        outcome=loop.outcome.label,
+        rounds=len(loop.rounds),
+    )
+    return planned, loop.scenario
 
 
-def _run_pruned(run: PayoffRun) -> tuple[PlanResult, dict[str, Any], Scenario, Goal, int]:
+def _run_pruned(run: PayoffRun) -> tuple[Planned, Loaded]:
     """The loop in the world pruned before grounding, with none of an earlier task's groundings kept."""
     listed, load = _names_of_world(run.world.scenario, run.world.scale)
     world = replace(listed, _whole=None, _parts={})
@@ -238,46 +315,65 @@ def _run_pruned(run: PayoffRun) -> tuple[PlanResult, dict[str, Any], Scenario, G
     if not oracle:  # the grounded world of the other configurations would only take memory here
         _world.cache_clear()
     backend_world = _world(run.world.scenario, run.world.scale)[0] if oracle else world.part(frozenset(), frozenset())
-    result, fields, scenario = _guide(run, world, backend_world, run.record.goal)
-    fields.update(load_s=load, grounded_whole=world.grounded)
-    return result, fields, scenario, scenario.task.resolve_goal(run.record.goal), len(world.names.actions)
+    planned, scenario = _guide(run, world, backend_world, run.record.goal)
+    goal = scenario.task.resolve_goal(run.record.goal)
+    kind = "names listed, pruned before grounding"
+    return planned, Loaded(scenario, goal, len(world.names.actions), load, kind, grounded_whole=world.grounded)
 
 
-def run_one(run: PayoffRun) -> dict[str, Any]:
+def _run_whole(run: PayoffRun) -> tuple[Planned, Loaded]:
+    """Plan in the grounded world (loaded from the cache, or grown and built)."""
+    scenario, load, kind = _world(run.world.scenario, run.world.scale)
+    goal = scenario.task.resolve_goal(run.record.goal)
+    planned = _plan(run, scenario, goal)
+    return planned, Loaded(scenario, goal, len(scenario.task.actions), load, kind)
+
+
+def run_one(run: PayoffRun) -> PayoffRow:
     """One task, one configuration: every phase's seconds and whether the tree is verified."""
-    if run.config.startswith(PRUNED):
-        result, fields, scenario, goal, actions = _run_pruned(run)
-        load_kind = "names listed, pruned before grounding"
-    else:
-        scenario, load, load_kind = _world(run.world.scenario, run.world.scale)
-        goal = scenario.task.resolve_goal(run.record.goal)
-        result, fields = _plan(run, scenario, goal)
-        fields["load_s"] = load
-        actions = len(scenario.task.actions)
-    load = fields["load_s"]
+    planned, loaded = _run_pruned(run) if run.config.startswith(PRUNED) else _run_whole(run)
     started = time.perf_counter()
-    verified = verified_tree(result, scenario.task, goal)
-    fields["verify_s"] = time.perf_counter() - started
+    verified = verified_tree(planned.result, loaded.scenario.task, loaded.goal)
+    verify = time.perf_counter() - started
     release_search_memory()
-    solve = fields["model_s"] + fields["planning_s"] + fields["verify_s"]
-    times = {name: round(value, 6) for name, value in fields.items() if name.endswith("_s")}
-    return {
-        **_known(run.world, run.record, run.config, actions),
-        **fields,
-        **times,
-        "load_kind": load_kind,
-        "status": result.status.value,
-        "solved": result.solved,
-        "verified": verified,
-        "explored": result.stats.explored,
-        "cost": result.cost,
-        "solve_s": round(solve, 6),
-        "total_s": round(solve + load, 6),
-        "resident_mb": round(resident_mb()),
-    }
+    solve = planned.model_s + planned.planning_s + verify
+    world, record, result = run.world, run.record, planned.result
+    return PayoffRow(
+        axis=world.axis,
+        cell=world.cell,
+        scale=world.scale,
+        scenario=world.scenario,
+        task=record.id,
+        p_star=len(record.optimal_actions),
+        config=run.config,
+        actions=loaded.actions,
+        planning_s=round(planned.planning_s, 6),
+        model_s=round(planned.model_s, 6),
+        backend_s=_round(planned.backend_s),
+        backend_setup_s=_round(planned.backend_setup_s),
+        outcome=planned.outcome,
+        rounds=planned.rounds,
+        load_s=round(loaded.load_s, 6),
+        grounded_whole=loaded.grounded_whole,
+        verify_s=round(verify, 6),
+        load_kind=loaded.load_kind,
+        status=result.status.value,
+        solved=result.solved,
+        verified=verified,
+        explored=result.stats.explored,
+        cost=result.cost,
+        solve_s=round(solve, 6),
+        total_s=round(solve + loaded.load_s, 6),
+        resident_mb=round(resident_mb()),
+    )
 
 
-def _known(world: World, record: Record, config: str, actions: int | None = None) -> dict[str, Any]:
+def _round(seconds: float | None) -> float | None:
+    return None if seconds is None else round(seconds, 6)
+
+
+def _known(world: World, record: Record, config: str) -> JsonObject:
+    """The JSON fields of a run's row known before it runs."""
     return {
         "axis": world.axis,
         "cell": world.cell,
@@ -286,7 +382,6 @@ def _known(world: World, record: Record, config: str, actions: int | None = None
         "task": record.id,
         "p_star": len(record.optimal_actions),
         "config": config,
-        **({"actions": actions} if actions is not None else {}),
     }
 
 
@@ -350,7 +445,7 @@ def run_payoff(
         for name in config.configs
         for record in records
     ]
-    results = ResultsFile(out / "results.jsonl", KEY)
+    results = ResultsFile(out / "results.jsonl", PayoffRow)
     try:
         limit = kill_after(config, options.timeout)
         run_work(run_one, work, results, execution, kill_after=limit, description="payoff")
@@ -363,40 +458,45 @@ def run_payoff(
     return summary
 
 
-PHASES = ("total_s", "solve_s", "load_s", "model_s", "planning_s", "verify_s")
 BEST_FREE = "best LLM-free"
 
 
-def _time(row: dict[str, Any] | None, measure: str) -> float:
-    """The row's time, infinite when it did not produce a verified tree."""
-    return float(row[measure]) if row is not None and row.get("verified") else math.inf
+def _times(row: PayoffRow | None) -> tuple[float, float]:
+    """The row's total and solve seconds, infinite when it did not produce a verified tree."""
+    if row is None or not row.verified or row.total_s is None or row.solve_s is None:
+        return math.inf, math.inf
+    return float(row.total_s), float(row.solve_s)
 
 
-def _stats(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
-    good = [r for r in rows if r.get("verified")]
+def _stats(rows: Sequence[PayoffRow]) -> dict[str, Any]:
+    good = [r for r in rows if r.verified]
     stats: dict[str, Any] = {"tasks": len(rows), "verified": len(good)}
-    stats.update({f"median_{phase}": median([r[phase] for r in good if phase in r]) for phase in PHASES})
+    phases = [r.phases for r in good]
+    stats.update({f"median_{phase}": median(p[phase] for p in phases) for phase in PAYOFF_PHASES})
     return stats
 
 
-def _best_free(tasks: dict[str, dict[str, dict[str, Any]]]) -> list[dict[str, Any]]:
+#: Per task, its rows by configuration.
+Tasks = dict[str, dict[str, PayoffRow]]
+
+
+def _best_free(tasks: Tasks) -> list[PayoffRow]:
     """Per task, the LLM-free row with the shortest total time (the first one if none is verified)."""
     best = []
     for by_config in tasks.values():
         free = [by_config[name] for name in LLM_FREE if name in by_config]
         if free:
-            best.append(min(free, key=lambda r: _time(r, "total_s")))
+            best.append(min(free, key=lambda r: _times(r)[0]))
     return best
 
 
-def _against(guided: str, tasks: dict[str, dict[str, dict[str, Any]]]) -> dict[str, Any]:
+def _against(guided: str, tasks: Tasks) -> dict[str, Any]:
     """How an LLM-guided configuration fares against the best LLM-free one, task by task."""
     pairs = []
     for by_config in tasks.values():
-        free = min((_time(by_config.get(name), "total_s") for name in LLM_FREE), default=math.inf)
-        free_solve = min((_time(by_config.get(name), "solve_s") for name in LLM_FREE), default=math.inf)
-        row = by_config.get(guided)
-        pairs.append((_time(row, "total_s"), free, _time(row, "solve_s"), free_solve))
+        free = [_times(by_config.get(name)) for name in LLM_FREE]
+        total, solve = _times(by_config.get(guided))
+        pairs.append((total, min(t for t, _ in free), solve, min(s for _, s in free)))
     finite = [(g, f, gs, fs) for g, f, gs, fs in pairs if math.isfinite(g) and math.isfinite(f) and f > 0 and fs > 0]
     return {
         "wins_total": sum(g < f for g, f, _, _ in pairs),
@@ -406,22 +506,22 @@ def _against(guided: str, tasks: dict[str, dict[str, dict[str, Any]]]) -> dict[s
     }
 
 
-def _cell(rows: Sequence[dict[str, Any]], config: PayoffConfig) -> dict[str, Any]:
-    tasks: dict[str, dict[str, dict[str, Any]]] = {}
+def _cell(rows: Sequence[PayoffRow], config: PayoffConfig) -> dict[str, Any]:
+    tasks: Tasks = {}
     for row in rows:
-        tasks.setdefault(row["task"], {})[row["config"]] = row
+        tasks.setdefault(row.task, {})[row.config] = row
     first = rows[0]
-    configs = {name: _stats([r for r in rows if r["config"] == name]) for name in config.configs}
+    configs = {name: _stats([r for r in rows if r.config == name]) for name in config.configs}
     configs[BEST_FREE] = _stats(_best_free(tasks))
     return {
-        "axis": first["axis"],
-        "cell": first["cell"],
-        "scale": first["scale"],
-        "scenario": first["scenario"],
-        "actions": next((r["actions"] for r in rows if "actions" in r), None),
-        "load_kind": next((r["load_kind"] for r in rows if "load_kind" in r), None),
+        "axis": first.axis,
+        "cell": first.cell,
+        "scale": first.scale,
+        "scenario": first.scenario,
+        "actions": next((r.actions for r in rows if r.actions is not None), None),
+        "load_kind": next((r.load_kind for r in rows if r.load_kind is not None), None),
         "tasks": len(tasks),
-        "median_p_star": median([r["p_star"] for r in rows]),
+        "median_p_star": median(r.p_star for r in rows),
         "configs": configs,
         "against": {name: _against(name, tasks) for name in config.configs if _guided(name)},
     }
@@ -447,10 +547,10 @@ def crossings(cells: Sequence[dict[str, Any]], guided: str, measure: str) -> dic
     return {"faster_in": faster, "crosses": flips}
 
 
-def summarise(rows: Sequence[dict[str, Any]], config: PayoffConfig) -> dict[str, Any]:
+def summarise(rows: Sequence[PayoffRow], config: PayoffConfig) -> dict[str, Any]:
     cells = []
     for world in _cells_of(config):
-        mine = [r for r in rows if r["axis"] == world.axis and r["cell"] == world.cell]
+        mine = [r for r in rows if (r.axis, r.cell) == (world.axis, world.cell)]
         if mine:
             cells.append(_cell(mine, config))
     guided = [name for name in config.configs if _guided(name)]
@@ -467,7 +567,7 @@ def summarise(rows: Sequence[dict[str, Any]], config: PayoffConfig) -> dict[str,
             "pruned": config.pruned,
         },
         "runs": len(rows),
-        "unverified": sum(not r.get("verified") for r in rows),
+        "unverified": sum(not r.verified for r in rows),
         "cells": cells,
         "crossings": {
             axis: {
@@ -484,52 +584,3 @@ def _cells_of(config: PayoffConfig) -> list[World]:
     cells = [World("set", name, name) for name in config.sets]
     cells += [World("level", level, "robothow") for level in config.levels]
     return cells + [World("size", f"x{s:g}", "robothow", s) for s in config.scales]
-
-
-def _s(value: float | None) -> str:
-    return "–" if value is None else f"{value:.3f}"
-
-
-def payoff_section(summary: dict[str, Any]) -> str:
-    """The per-cell medians, the guided/LLM-free ratios and where the curves cross."""
-    rows = []
-    for cell in summary["cells"]:
-        for name, stats in cell["configs"].items():
-            against = cell["against"].get(name, {})
-            rows.append(
-                [
-                    cell["axis"],
-                    cell["cell"],
-                    cell["actions"],
-                    name,
-                    f"{stats['verified']}/{stats['tasks']}",
-                    *(_s(stats[f"median_{phase}"]) for phase in PHASES),
-                    _s(against.get("median_ratio_total")),
-                    _s(against.get("median_ratio_solve")),
-                    against.get("wins_total", "–"),
-                ]
-            )
-    header = ["axis", "cell", "|A|", "configuration", "verified", "total s", "solve s", "load s", "model s"]
-    header += ["planning s", "verify s", "ratio total", "ratio solve", "wins"]
-    cross = [
-        [axis, name, measure, ", ".join(c["faster_in"]) or "nowhere", ", ".join(c["crosses"]) or "–"]
-        for axis, by_name in summary["crossings"].items()
-        for name, by_measure in by_name.items()
-        for measure, c in by_measure.items()
-    ]
-    config = summary["config"]
-    return "\n\n".join(
-        [
-            "## End-to-end time to a verified tree: LLM-guided HBTP against the best LLM-free planner",
-            f"{config['tasks']} tasks per cell; LLM-free: OBTEA and HBTP-S with the landmark heuristic, no hints, "
-            f"{config['time_limit']:g} s; LLM-guided: HBTP-S rounds of {config['round_time_limit']:g} s, "
-            f"{config['feedback_rounds']} feedback rounds, the full-space fallback. Medians over the verified "
-            "trees; total = load + model + planning + verification, solve = total without the load; ratios are "
-            "medians over the tasks of guided / best LLM-free (below 1: the LLM pays); wins: tasks where "
-            f"guidance reached a verified tree first. Runs: {summary['runs']}, unverified: {summary['unverified']}.",
-            _table(header, rows),
-            "Where the curves cross (medians, LLM-guided against best LLM-free):",
-            _table(["axis", "configuration", "measure", "guided faster in", "order flips between"], cross),
-            "![payoff](payoff.png)",
-        ]
-    )

@@ -21,15 +21,16 @@ from __future__ import annotations
 
 import logging
 import time
+from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from hbtp import compiled
 from hbtp.bench.plots import PLANNER_LABELS, plot_pddl_coverage
 from hbtp.bench.report import _table, write_report
-from hbtp.bench.results import ResultsFile, median, read_json, write_json
+from hbtp.bench.results import JsonObject, ResultsFile, Row, median, optional, read_json, write_json
 from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, Work, hard_limit, run_work
 from hbtp.bt import tree_of
 from hbtp.bt.simulate import simulate
@@ -39,12 +40,11 @@ from hbtp.domains import load_pddl_scenario
 from hbtp.domains.scenarios import ScenarioOptions
 from hbtp.errors import BackendError, HbtpError, InputError
 from hbtp.planning import Limits, PlanResult, plan, release_search_memory
-from hbtp.planning.heuristics import HeuristicName
+from hbtp.planning.heuristic_names import HeuristicName
 from hbtp.planning.planners import planner_config
 
 log = logging.getLogger(__name__)
 
-KEY = ("domain", "instance", "planner", "heuristic", "symmetry")
 REFERENCE_FILE = "fd_optimal_costs.json"
 #: Planners whose cost must equal the optimum (without hints HBTP-O searches as OBTEA does).
 OPTIMAL_PLANNERS = ("obtea", "hbtp-o")
@@ -67,11 +67,43 @@ class Instance:
 @dataclass(frozen=True)
 class PddlConfig:
     planners: tuple[str, ...] = ("obtea",)
-    heuristic: HeuristicName = "seq"
+    heuristic: HeuristicName = HeuristicName.SEQ
     time_limit: float = 60.0
     validate: bool = False
     #: Symmetry pruning (interchangeable objects: SearchConfig.symmetry) in hbtp's searches.
     symmetry: bool = True
+
+
+@dataclass(frozen=True, kw_only=True)
+class PddlRow(Row):
+    """One planner on one instance. ``actions`` is hbtp's ground actions for the goal, or Fast
+    Downward's translator's operators (``None``: not reported). A run stopped before it planned
+    (killed, an instance hbtp could not load, Fast Downward not run) has no ``actions`` and no
+    ``planning_s``; a load error has the ``load_s`` it took and a ``message``."""
+
+    KEY = ("domain", "instance", "planner", "heuristic", "symmetry")
+
+    domain: str
+    instance: str
+    planner: str
+    heuristic: str
+    symmetry: bool
+    status: str
+    time_s: float
+    solved: bool = False
+    verified: bool = False
+    cost: float | None = None
+    explored: int | None = None
+    reference_cost: float | None = None
+    mismatch: bool = False
+    actions: int | None = None
+    reference_source: str | None = optional()
+    message: str | None = optional()
+    search: str | None = optional()
+    load_s: float | None = optional()
+    planning_s: float | None = optional()
+    pruned_symmetric: int | None = optional()
+    reachable_actions: int | None = optional()
 
 
 @dataclass(frozen=True)
@@ -142,33 +174,30 @@ def verified_tree(result: PlanResult, scenario: Any, goal: Any) -> bool:
     return check.ok and simulate(tree, scenario.task).reached(goal)
 
 
-def fast_downward_row(run: PddlRun) -> dict[str, Any]:
+def fast_downward_row(run: PddlRun) -> PddlRow:
     """Fast Downward (A* + LM-cut, its driver) on the instance's files, read and grounded by its own
     translator: a row of the pseudo-planner :data:`FAST_DOWNWARD`, its ``actions`` the translator's
     operators. Its plan is Fast Downward's own (not replayed in hbtp's task), so ``verified`` is
     whether it found one."""
     from hbtp.validation import run_fast_downward_files
 
-    row = known(run)
     try:
         fd = run_fast_downward_files(run.instance.domain_file, run.instance.problem_file, time_limit=run.time_limit)
     except BackendError as error:
-        return {**row, "status": "error", "solved": False, "message": str(error)[:300], "time_s": 0.0}
+        return replace(_before_planning(run, "error", 0.0), message=str(error)[:300])
     solved = fd.cost is not None
-    return {
-        **row,
-        "status": "solved" if solved else fd.status.value,
-        "solved": solved,
-        "verified": solved,
-        "cost": float(fd.cost) if fd.cost is not None else None,
-        "actions": fd.operators,
-        "search": fd.search,
-        "load_s": 0.0,
-        "planning_s": round(fd.time_s, 6),
-        "time_s": round(fd.time_s, 6),
-        "mismatch": False,
-        **({"message": fd.message[:300]} if fd.message else {}),
-    }
+    return replace(
+        _before_planning(run, "solved" if solved else fd.status.value, round(fd.time_s, 6)),
+        absent=frozenset(),
+        solved=solved,
+        verified=solved,
+        cost=float(fd.cost) if fd.cost is not None else None,
+        actions=fd.operators,
+        search=fd.search,
+        load_s=0.0,
+        planning_s=round(fd.time_s, 6),
+        message=fd.message[:300] if fd.message else None,
+    )
 
 
 def mismatch(planner: str, cost: float | None, reference: float | None) -> bool:
@@ -179,12 +208,11 @@ def mismatch(planner: str, cost: float | None, reference: float | None) -> bool:
     return abs(cost - reference) > 1e-6 if planner in OPTIMAL_PLANNERS else cost < reference - 1e-6
 
 
-def run_one(run: PddlRun) -> dict[str, Any]:
+def run_one(run: PddlRun) -> PddlRow:
     """Load (ground) the instance, plan for its :goal, verify the tree, compare with the reference
     (the row of Fast Downward for :data:`FAST_DOWNWARD`)."""
     if run.planner == FAST_DOWNWARD:
         return fast_downward_row(run)
-    row = known(run)
     started = time.perf_counter()
     try:
         options = ScenarioOptions(name=f"{run.instance.domain}/{run.instance.name}")
@@ -195,18 +223,10 @@ def run_one(run: PddlRun) -> dict[str, Any]:
         whole, goal = loaded.resolve_goal(loaded.problem_goal())
         scenario = whole.for_goal(goal)
     except HbtpError as error:  # a time limit while loading, a file hbtp cannot read or ground
-        load = time.perf_counter() - started
+        load = round(time.perf_counter() - started, 6)
         status = "load-timeout" if isinstance(error, TimeLimitReached) else "load-error"
         log.warning("%s/%s: %s", run.instance.domain, run.instance.name, error)
-        return {
-            **row,
-            "status": status,
-            "solved": False,
-            "verified": False,
-            "message": str(error)[:300],
-            "load_s": round(load, 6),
-            "time_s": round(load, 6),
-        }
+        return replace(_before_planning(run, status, load), message=str(error)[:300], load_s=load)
     load = time.perf_counter() - started
     started = time.perf_counter()
     limits = Limits(time_s=run.time_limit)
@@ -216,39 +236,50 @@ def run_one(run: PddlRun) -> dict[str, Any]:
     verified = verified_tree(result, scenario, goal)
     release_search_memory()
     cost = float(result.cost) if result.solved and result.cost is not None else None
-    return {
-        **row,
-        "status": result.status.value,
-        "solved": result.solved,
-        "verified": verified,
-        "cost": cost,
-        "explored": result.stats.explored,
-        "pruned_symmetric": result.stats.pruned_symmetric,
-        "actions": len(scenario.task.actions),
-        "reachable_actions": len(whole.task.actions),
-        "load_s": round(load, 6),
-        "planning_s": round(planning, 6),
-        "time_s": round(load + planning, 6),
-        "mismatch": mismatch(run.planner, cost, row.get("reference_cost")),
-    }
+    return replace(
+        _before_planning(run, result.status.value, round(load + planning, 6)),
+        absent=frozenset(),
+        solved=result.solved,
+        verified=verified,
+        cost=cost,
+        explored=result.stats.explored,
+        pruned_symmetric=result.stats.pruned_symmetric,
+        actions=len(scenario.task.actions),
+        reachable_actions=len(whole.task.actions),
+        load_s=round(load, 6),
+        planning_s=round(planning, 6),
+        mismatch=mismatch(run.planner, cost, run.reference),
+    )
 
 
-def known(run: PddlRun) -> dict[str, Any]:
-    fields: dict[str, Any] = {
-        "domain": run.instance.domain,
-        "instance": run.instance.name,
-        "planner": run.planner,
-        "heuristic": run.heuristic,
-        "symmetry": run.symmetry and run.planner != FAST_DOWNWARD,
-        "reference_cost": run.reference,
-        "cost": None,
-        "explored": None,
-        "verified": False,
-        "mismatch": False,
-    }
-    if run.reference is not None:
-        fields["reference_source"] = REFERENCE_FILE
-    return fields
+def _symmetry(run: PddlRun) -> bool:
+    """Whether the run prunes symmetric conditions (Fast Downward's never does)."""
+    return run.symmetry and run.planner != FAST_DOWNWARD
+
+
+def _before_planning(run: PddlRun, status: str, seconds: float) -> PddlRow:
+    """The row of ``run`` ended with ``status`` after ``seconds`` before it planned: its known
+    fields, unsolved, without ground actions."""
+    return PddlRow(
+        domain=run.instance.domain,
+        instance=run.instance.name,
+        planner=run.planner,
+        heuristic=run.heuristic,
+        symmetry=_symmetry(run),
+        reference_cost=run.reference,
+        reference_source=REFERENCE_FILE if run.reference is not None else None,
+        status=status,
+        time_s=seconds,
+        absent=frozenset({"actions"}),
+    )
+
+
+def known(run: PddlRun) -> JsonObject:
+    """The JSON fields of a run's row known before it runs."""
+    data = _before_planning(run, "", 0.0).to_json()
+    for name in ("status", "solved", "time_s"):
+        del data[name]
+    return data
 
 
 def run_pddl(folder: Path, config: PddlConfig, out: Path, execution: Execution = DEFAULT_EXECUTION) -> dict[str, Any]:
@@ -264,9 +295,9 @@ def run_pddl(folder: Path, config: PddlConfig, out: Path, execution: Execution =
             spec = PddlRun(
                 instance, planner, config.heuristic, config.time_limit, reference, config.validate, config.symmetry
             )
-            key = (instance.domain, instance.name, planner, config.heuristic, known(spec)["symmetry"])
+            key = (instance.domain, instance.name, planner, config.heuristic, _symmetry(spec))
             work.append(Work(key, spec, known(spec), stage=f"{planner} {instance.domain}"))
-    results = ResultsFile(out / "results.jsonl", KEY)
+    results = ResultsFile(out / "results.jsonl", PddlRow)
     run_work(run_one, work, results, execution, kill_after=hard_limit(config.time_limit), description="pddl")
     summary = summarise(list(results.ordered(w.key for w in work)), config, folder)
     write_json(out / "summary.json", summary)
@@ -275,54 +306,59 @@ def run_pddl(folder: Path, config: PddlConfig, out: Path, execution: Execution =
     return summary
 
 
-def _planner_stats(rows: Sequence[dict[str, Any]], domains: Sequence[str]) -> dict[str, Any]:
-    good = [r for r in rows if r.get("verified")]
-    statuses: dict[str, int] = {}
-    for row in rows:
-        statuses[row["status"]] = statuses.get(row["status"], 0) + 1
+def _planner_stats(rows: Sequence[PddlRow], domains: Sequence[str]) -> dict[str, Any]:
+    good = [r for r in rows if r.verified]
     return {
         "instances": len(rows),
-        "solved": sum(bool(r.get("solved")) for r in rows),
+        "solved": sum(r.solved for r in rows),
         "verified": len(good),
-        "statuses": statuses,
-        "by_domain": {d: sum(r["domain"] == d for r in good) for d in domains},
-        "median_time_s": median([r["time_s"] for r in good]),
-        "median_load_s": median([r["load_s"] for r in good]),
-        "median_planning_s": median([r["planning_s"] for r in good]),
-        "median_explored": median([r["explored"] for r in good if r.get("explored") is not None]),
-        "solve_times": sorted(r["time_s"] for r in good),
+        "statuses": dict(Counter(r.status for r in rows)),
+        "by_domain": {d: sum(r.domain == d for r in good) for d in domains},
+        "median_time_s": median(r.time_s for r in good),
+        "median_load_s": median(r.load_s for r in good),
+        "median_planning_s": median(r.planning_s for r in good),
+        "median_explored": median(r.explored for r in good),
+        "solve_times": sorted(r.time_s for r in good),
     }
 
 
-def with_fast_downward(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+def _fast_downward_rows(rows: Sequence[PddlRow]) -> dict[tuple[str, str], PddlRow]:
+    return {(r.domain, r.instance): r for r in rows if r.planner == FAST_DOWNWARD}
+
+
+def with_fast_downward(rows: Sequence[PddlRow]) -> list[PddlRow]:
     """``rows`` with Fast Downward's cost as the reference of the instances the reference file does
-    not cover, and each hbtp row's ground actions for the goal over the translator's operators
-    (``ground_ratio``), and its whole reachable grounding's (``reachable_ratio``)."""
-    by_instance = {(r["domain"], r["instance"]): r for r in rows if r["planner"] == FAST_DOWNWARD}
-    out: list[dict[str, Any]] = []
+    not cover (and whether it is a mismatch)."""
+    by_instance = _fast_downward_rows(rows)
+    out: list[PddlRow] = []
     for row in rows:
-        fd = by_instance.get((row["domain"], row["instance"]))
-        if row["planner"] == FAST_DOWNWARD or fd is None:
-            out.append(row)
-            continue
-        row = dict(row)
-        if row.get("reference_cost") is None and fd.get("cost") is not None:
-            row.update(reference_cost=fd["cost"], reference_source=FAST_DOWNWARD)
-            row["mismatch"] = mismatch(row["planner"], row.get("cost"), row["reference_cost"])
-        if row.get("actions") and fd.get("actions"):
-            row["ground_ratio"] = round(row["actions"] / fd["actions"], 3)
-            row["reachable_ratio"] = round(row.get("reachable_actions", row["actions"]) / fd["actions"], 3)
+        fd = by_instance.get((row.domain, row.instance))
+        if row.planner != FAST_DOWNWARD and fd is not None and row.reference_cost is None and fd.cost is not None:
+            found = mismatch(row.planner, row.cost, fd.cost)
+            row = replace(row, reference_cost=fd.cost, reference_source=FAST_DOWNWARD, mismatch=found)
         out.append(row)
     return out
 
 
-def _grounding(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
-    """hbtp's ground actions (for the goal, and all those reachable) against the translator's
-    operators (for the goal), per instance (the first planner's rows)."""
-    seen: dict[tuple[str, str], tuple[float, float]] = {}
+def ground_ratios(rows: Sequence[PddlRow]) -> dict[tuple[str, str], tuple[float, float]]:
+    """Per instance (its first hbtp row), hbtp's ground actions for the goal over Fast Downward's
+    translator's operators, and its whole reachable grounding's."""
+    by_instance = _fast_downward_rows(rows)
+    ratios: dict[tuple[str, str], tuple[float, float]] = {}
     for row in rows:
-        if row.get("ground_ratio") is not None:
-            seen.setdefault((row["domain"], row["instance"]), (row["ground_ratio"], row["reachable_ratio"]))
+        fd = by_instance.get((row.domain, row.instance))
+        if row.planner == FAST_DOWNWARD or fd is None or not row.actions or not fd.actions:
+            continue
+        reachable = row.actions if row.reachable_actions is None else row.reachable_actions
+        ratios.setdefault(
+            (row.domain, row.instance), (round(row.actions / fd.actions, 3), round(reachable / fd.actions, 3))
+        )
+    return ratios
+
+
+def _grounding(seen: dict[tuple[str, str], tuple[float, float]]) -> dict[str, Any]:
+    """hbtp's ground actions (for the goal, and all those reachable) against the translator's
+    operators (for the goal), per instance (:func:`ground_ratios`)."""
 
     def above(part: int) -> list[str]:
         return sorted(f"{d}/{i} {r[part]:.2f}x" for (d, i), r in seen.items() if r[part] > GROUND_RATIO_TARGET)
@@ -336,17 +372,21 @@ def _grounding(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
-def summarise(rows: Sequence[dict[str, Any]], config: PddlConfig, folder: Path) -> dict[str, Any]:
+def _mismatch_entry(row: PddlRow) -> dict[str, Any]:
+    return {
+        "domain": row.domain,
+        "instance": row.instance,
+        "planner": row.planner,
+        "cost": row.cost,
+        "reference_cost": row.reference_cost,
+        "reference_source": row.reference_source,
+    }
+
+
+def summarise(rows: Sequence[PddlRow], config: PddlConfig, folder: Path) -> dict[str, Any]:
     rows = with_fast_downward(rows)
-    domains = list(dict.fromkeys(r["domain"] for r in rows))
-    mismatches = [
-        {k: r.get(k) for k in ("domain", "instance", "planner", "cost", "reference_cost", "reference_source")}
-        for r in rows
-        if r.get("mismatch")
-    ]
-    compared = [
-        r for r in rows if r["planner"] != FAST_DOWNWARD and r.get("solved") and r.get("reference_cost") is not None
-    ]
+    domains = list(dict.fromkeys(r.domain for r in rows))
+    compared = [r for r in rows if r.planner != FAST_DOWNWARD and r.solved and r.reference_cost is not None]
     return {
         "config": {
             "folder": str(folder),
@@ -358,17 +398,15 @@ def summarise(rows: Sequence[dict[str, Any]], config: PddlConfig, folder: Path) 
             "c_extensions": compiled.built(),  # of the process that summarised: a resumed run may mix
         },
         "runs": len(rows),
-        "domains": {d: len({r["instance"] for r in rows if r["domain"] == d}) for d in domains},
+        "domains": {d: len({r.instance for r in rows if r.domain == d}) for d in domains},
         "planners": {
-            p: _planner_stats([r for r in rows if r["planner"] == p], domains)
+            p: _planner_stats([r for r in rows if r.planner == p], domains)
             for p in (*config.planners, *((FAST_DOWNWARD,) if config.validate else ()))
         },
-        "grounding": _grounding(rows),
+        "grounding": _grounding(ground_ratios(rows)),
         "compared": len(compared),
-        "mismatches": mismatches,
-        "unverified": [
-            f"{r['domain']}/{r['instance']} {r['planner']}" for r in rows if r.get("solved") and not r.get("verified")
-        ],
+        "mismatches": [_mismatch_entry(r) for r in rows if r.mismatch],
+        "unverified": [f"{r.domain}/{r.instance} {r.planner}" for r in rows if r.solved and not r.verified],
     }
 
 

@@ -13,15 +13,16 @@ from __future__ import annotations
 
 import logging
 import time
+from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from hbtp.bench.paper import paper_scenario
 from hbtp.bench.plots import plot_robustness
 from hbtp.bench.report import robustness_section, write_report
-from hbtp.bench.results import ResultsFile, mean, median, write_json
+from hbtp.bench.results import JsonObject, ResultsFile, Row, mean, median, optional, write_json
 from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, RunFailure, Work, hard_limit, run_work
 from hbtp.bt import tree_of
 from hbtp.bt.disturb import perturbation_stats
@@ -34,7 +35,7 @@ from hbtp.errors import InputError
 from hbtp.llm.parse import hints_from_record
 from hbtp.logic.task import Goal
 from hbtp.planning import PLANNERS, Limits, PlanResult, plan
-from hbtp.planning.heuristics import HEURISTICS, HeuristicName
+from hbtp.planning.heuristic_names import HEURISTICS, HeuristicName
 from hbtp.planning.planners import Space
 from hbtp.runtime import ReplanOptions, replanning_stats
 
@@ -44,7 +45,6 @@ SCENARIOS = ("robowaiter", "virtualhome", "robothow-small", "robothow")
 TREES = ("full", "path")
 #: The same trees run with re-planning (:mod:`hbtp.runtime`) when the benchmark is asked to.
 REPLANNED = ("full+replan", "path+replan")
-KEY = ("scenario", "task", "planner", "heuristic", "robust", "p", "tree", "runs", "seed", "max_ticks")
 MAX_TICKS = 500
 TIME_LIMIT = 30.0
 
@@ -67,7 +67,7 @@ def plan_record(
     record: Record,
     time_limit: float = TIME_LIMIT,
     planner: str = "hbtp-s",
-    heuristic: HeuristicName = "lm",
+    heuristic: HeuristicName = HeuristicName.LM,
     robust: int = 0,
 ) -> tuple[PlanResult, str]:
     """HBTP-S (or ``planner``) in the pruned space with the record's hints and the landmark
@@ -97,8 +97,62 @@ def plan_record(
         planner,
         result.status.value,
     )
-    result = plan(scenario.task, record.goal, "obtea", mutexes=scenario.mutexes, heuristic="lm", limits=limits)
+    result = plan(
+        scenario.task, record.goal, "obtea", mutexes=scenario.mutexes, heuristic=HeuristicName.LM, limits=limits
+    )
     return result, "obtea/full"
+
+
+@dataclass(frozen=True, kw_only=True)
+class RobustnessRow(Row):
+    """One task's tree of one kind under perturbations of probability ``p``. A tree that was not run
+    (the task not solved) has no run figures but ``success_rate`` 0, and a killed task's rows have
+    neither its planning's (``plan_cost``, ``plan_time_s``, ``condition_checks``), but ``status``
+    and ``time_s``."""
+
+    KEY = ("scenario", "task", "planner", "heuristic", "robust", "p", "tree", "runs", "seed", "max_ticks")
+
+    scenario: str
+    dataset: str
+    task: str
+    goal: str
+    planner: str
+    heuristic: str
+    robust: int
+    p: float
+    tree: str
+    runs: int
+    seed: int
+    max_ticks: int
+    planned_with: str
+    solved: bool
+    explored: int | None
+    nodes: int | None
+    success_rate: float
+    successes: int
+    mean_extra_ticks: float | None
+    mean_extra_cost: float | None
+    plan_cost: int | None = None
+    condition_checks: int | None = None
+    plan_time_s: float | None = optional()
+    #: The figures of the perturbed runs (:func:`hbtp.bt.disturb.perturbation_stats`).
+    mean_ticks: float | None = None
+    mean_cost: float | None = None
+    mean_events: float | None = optional()
+    limit_hits: int | None = optional()
+    base_reached: bool | None = optional()
+    base_ticks: int | None = optional()
+    base_cost: int | None = optional()
+    #: And with re-planning (:func:`hbtp.replanning.replanning_stats`).
+    replans: int | None = optional()
+    mean_replans: float | None = None
+    median_replan_ms: float | None = None
+    max_replan_ms: float | None = None
+    unsolvable_runs: int | None = optional()
+    budget_runs: int | None = optional()
+    success_rate_reachable: float | None = None
+    status: str | None = optional()
+    time_s: float | None = optional()
 
 
 @dataclass(frozen=True)
@@ -115,7 +169,7 @@ class RobustnessConfig:
     limit: int | None = None
     max_ticks: int = MAX_TICKS
     planner: str = "hbtp-s"
-    heuristic: HeuristicName = "lm"
+    heuristic: HeuristicName = HeuristicName.LM
     robust: int = 0
     #: Also run each tree with re-planning (OBTEA with the landmark heuristic from the state the tree
     #: fails in): the ``full+replan`` and ``path+replan`` rows.
@@ -164,7 +218,7 @@ def run_robustness(
     """Run (or resume) the benchmark into ``out_dir``; returns the summary (also ``summary.json``)."""
     out = Path(out_dir)
     started = time.perf_counter()
-    results = ResultsFile(out / "results.jsonl", KEY)
+    results = ResultsFile(out / "results.jsonl", RobustnessRow)
     work = [
         Work((name, record.id), RobustnessRun(name, record, config), _killed_rows(name, record, config), stage=name)
         for name in config.scenarios
@@ -192,96 +246,92 @@ class RobustnessRun:
     config: RobustnessConfig
 
 
-def _task_fields(scenario: str, record: Record, config: RobustnessConfig) -> dict[str, Any]:
-    """The fields that name a task's rows, first in every row."""
-    return {
-        "scenario": scenario,
-        "dataset": dataset_of(scenario),
-        "task": record.id,
-        "goal": record.goal.strip(),
-        "planner": config.planner,
-        "heuristic": config.heuristic,
-        "robust": config.robust,
-    }
+#: The run figures a tree's rows have only when it was run, and that may be ``null`` then.
+_FIGURES = frozenset(
+    {"mean_ticks", "mean_cost", "mean_replans", "median_replan_ms", "max_replan_ms", "success_rate_reachable"}
+)
+#: The fields a task's rows have only once it was planned, and that may be ``null`` then.
+_PLANNED = frozenset({"plan_cost", "condition_checks"})
 
 
-_NOT_RUN = {"success_rate": 0.0, "successes": 0, "mean_extra_ticks": None, "mean_extra_cost": None}
-
-
-def _killed_rows(scenario: str, record: Record, config: RobustnessConfig) -> tuple[dict[str, Any], ...]:
-    """The rows of a task whose worker was killed: one per (p, tree)."""
-    fields = _task_fields(scenario, record, config)
-    return tuple(
-        {
-            **fields,
-            "p": p,
-            "tree": kind,
-            "runs": config.runs,
-            "seed": config.seed,
-            "max_ticks": config.max_ticks,
-            "planned_with": RunFailure.KILLED.value,
-            "explored": None,
-            "nodes": None,
-            **_NOT_RUN,
-        }
-        for p in config.p_values
-        for kind in config.trees
+def _not_run(scenario: str, record: Record, config: RobustnessConfig, p: float, kind: str) -> RobustnessRow:
+    """The row of a tree not run at ``p``: the task's fields, not planned (as a killed task's rows)."""
+    return RobustnessRow(
+        scenario=scenario,
+        dataset=dataset_of(scenario),
+        task=record.id,
+        goal=record.goal.strip(),
+        planner=config.planner,
+        heuristic=config.heuristic,
+        robust=config.robust,
+        p=p,
+        tree=kind,
+        runs=config.runs,
+        seed=config.seed,
+        max_ticks=config.max_ticks,
+        planned_with=RunFailure.KILLED.value,
+        solved=False,
+        explored=None,
+        nodes=None,
+        success_rate=0.0,
+        successes=0,
+        mean_extra_ticks=None,
+        mean_extra_cost=None,
+        absent=_PLANNED | _FIGURES,
     )
 
 
-def run_one(run: RobustnessRun) -> list[dict[str, Any]]:
+def _killed_rows(scenario: str, record: Record, config: RobustnessConfig) -> tuple[JsonObject, ...]:
+    """The rows of a task whose worker was killed, one per (p, tree): the JSON fields known before it ran."""
+    return tuple(
+        _not_run(scenario, record, config, p, kind).to_json() for p in config.p_values for kind in config.trees
+    )
+
+
+def run_one(run: RobustnessRun) -> list[RobustnessRow]:
     """The rows of one task: one per (p, tree)."""
     return _run_task(paper_scenario(run.scenario), run.record, run.config)
 
 
-def _run_task(scenario: Scenario, record: Record, config: RobustnessConfig) -> list[dict[str, Any]]:
+def _run_task(scenario: Scenario, record: Record, config: RobustnessConfig) -> list[RobustnessRow]:
     started = time.perf_counter()
     result, how = plan_record(
         scenario, record, planner=config.planner, heuristic=config.heuristic, robust=config.robust
     )
-    base: dict[str, Any] = {
-        **_task_fields(scenario.name, record, config),
-        "planned_with": how,
-        "solved": result.solved,
-        "explored": result.stats.explored,
-        "plan_cost": result.cost,
-        "plan_time_s": round(time.perf_counter() - started, 6),
-        "runs": config.runs,
-        "seed": config.seed,
-        "max_ticks": config.max_ticks,
-    }
+    seconds = round(time.perf_counter() - started, 6)
     goal = scenario.task.resolve_goal(record.goal)
-    rows: list[dict[str, Any]] = []
+    rows: list[RobustnessRow] = []
     for kind in config.trees:
         tree = tree_of(result, kind.removesuffix("+replan")) if result.solved else None
-        rows += _tree_rows(scenario, goal, kind, tree, config, base)
+        planned = replace(
+            _not_run(scenario.name, record, config, 0.0, kind),  # its p is set per row by _tree_rows
+            planned_with=how,
+            solved=result.solved,
+            explored=result.stats.explored,
+            plan_cost=result.cost,
+            plan_time_s=seconds,
+            absent=_FIGURES,
+        )
+        rows += _tree_rows(scenario, goal, tree, config, planned)
     return rows
 
 
 def _tree_rows(
-    scenario: Scenario,
-    goal: Goal,
-    kind: str,
-    tree: Node | None,
-    config: RobustnessConfig,
-    base: dict[str, Any],
-) -> list[dict[str, Any]]:
-    """One row per p for one tree (``None`` for a task not solved): its size, its condition checks
-    undisturbed, and its figures under perturbations (:func:`hbtp.bt.disturb.perturbation_stats`)."""
-    task = scenario.task
-    fields = {
-        "nodes": size(tree).nodes if tree is not None else None,
-        "condition_checks": condition_checks(tree, task, max_ticks=config.max_ticks) if tree is not None else None,
-    }
-    seed = task_seed(config.seed, scenario.name, base["task"])
-    rows: list[dict[str, Any]] = []
+    scenario: Scenario, goal: Goal, tree: Node | None, config: RobustnessConfig, planned: RobustnessRow
+) -> list[RobustnessRow]:
+    """One row per p for one tree (``None`` for a task not solved; ``planned`` the rows' fields known
+    from planning): its size, its condition checks undisturbed, and its figures under perturbations
+    (:func:`hbtp.bt.disturb.perturbation_stats`)."""
+    if tree is not None:
+        checks = condition_checks(tree, scenario.task, max_ticks=config.max_ticks)
+        planned = replace(planned, nodes=size(tree).nodes, condition_checks=checks)
+    seed = task_seed(config.seed, scenario.name, planned.task)
+    rows: list[RobustnessRow] = []
     for p in config.p_values:
-        row = {**base, "p": p, "tree": kind, **fields}
-        if tree is None:
-            row.update(_NOT_RUN)
-        else:
-            stats = _stats(scenario, goal, kind, tree, p, seed, config)
-            row.update({k: v for k, v in stats.items() if k not in ("p", "seed")})
+        row = replace(planned, p=p)
+        if tree is not None:
+            stats = _stats(scenario, goal, planned.tree, tree, p, seed, config)
+            row = row.updated({k: v for k, v in stats.items() if k not in ("p", "seed")})
         rows.append(row)
     return rows
 
@@ -296,7 +346,7 @@ def _stats(
 
 
 def summarise(
-    rows: Sequence[dict[str, Any]],
+    rows: Sequence[RobustnessRow],
     scenarios: Sequence[str],
     p_values: Sequence[float],
     trees: Sequence[str] = TREES,
@@ -304,73 +354,81 @@ def summarise(
     """Per scenario (and ``all``), per p and tree: means over tasks; and full-vs-path task counts."""
     table: dict[str, Any] = {}
     for name in [*scenarios, "all"]:
-        mine = [r for r in rows if name == "all" or r["scenario"] == name]
-        per_p: dict[str, Any] = {}
-        for p in p_values:
-            at_p = [r for r in mine if r["p"] == p]
-            entry: dict[str, Any] = {}
-            for kind in trees:
-                chosen = [r for r in at_p if r["tree"] == kind]
-                entry[kind] = {
-                    "tasks": len(chosen),
-                    "success_rate": mean([r["success_rate"] for r in chosen]),
-                    "runs_succeeded": sum(r["successes"] for r in chosen),
-                    "tasks_all_runs_succeeded": sum(r["successes"] == r["runs"] for r in chosen),
-                    "mean_extra_ticks": mean(
-                        [r["mean_extra_ticks"] for r in chosen if r["mean_extra_ticks"] is not None]
-                    ),
-                    "mean_extra_cost": mean([r["mean_extra_cost"] for r in chosen if r["mean_extra_cost"] is not None]),
-                    "mean_events": mean([r["mean_events"] for r in chosen if r.get("mean_events") is not None]),
-                    "mean_nodes": mean([r["nodes"] for r in chosen if r["nodes"] is not None]),
-                    "mean_base_ticks": mean([r["base_ticks"] for r in chosen if r.get("base_ticks") is not None]),
-                    "mean_condition_checks": mean(
-                        [r["condition_checks"] for r in chosen if r.get("condition_checks") is not None]
-                    ),
-                    **(_replanning(chosen) if kind in REPLANNED else {}),
-                }
-            pairs = _pairs(at_p)
-            entry["full_better"] = sum(f > q for f, q in pairs)
-            entry["path_better"] = sum(f < q for f, q in pairs)
-            entry["equal"] = sum(f == q for f, q in pairs)
-            per_p[str(p)] = entry
+        mine = [r for r in rows if name == "all" or r.scenario == name]
         table[name] = {
-            "tasks": len({(r["scenario"], r["task"]) for r in mine}),
-            "planned_with": _counts(mine, "planned_with"),
-            "unsolved": len({(r["scenario"], r["task"]) for r in mine if not r["solved"]}),
-            "p": per_p,
+            "tasks": len({(r.scenario, r.task) for r in mine}),
+            "planned_with": _planned_with(mine),
+            "unsolved": len({(r.scenario, r.task) for r in mine if not r.solved}),
+            "p": {str(p): _at_p([r for r in mine if r.p == p], trees) for p in p_values},
         }
     return {"benchmark": "robustness", "scenarios": table}
 
 
-def _replanning(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
-    """The re-planning figures of a tree kind's rows: runs whose goal stayed reachable and how many
-    of them succeeded, re-plans per run, and the median of the rows' median re-planning times."""
-    runs = sum(r["runs"] for r in rows if r.get("unsolvable_runs") is not None)
-    unsolvable = sum(r["unsolvable_runs"] for r in rows if r.get("unsolvable_runs") is not None)
+def _at_p(rows: Sequence[RobustnessRow], trees: Sequence[str]) -> dict[str, Any]:
+    """The rows of one p: the figures of each tree kind, and the tasks where the full tree did better
+    than the path tree, worse, or the same."""
+    entry: dict[str, Any] = {kind: _tree_figures([r for r in rows if r.tree == kind], kind) for kind in trees}
+    pairs = _pairs(rows)
+    entry["full_better"] = sum(f > q for f, q in pairs)
+    entry["path_better"] = sum(f < q for f, q in pairs)
+    entry["equal"] = sum(f == q for f, q in pairs)
+    return entry
+
+
+def _tree_figures(rows: Sequence[RobustnessRow], kind: str) -> dict[str, Any]:
+    """Means over the tasks of one tree kind at one p (each over the rows that have the figure)."""
     return {
-        "reachable_runs": runs - unsolvable,
-        "reachable_runs_succeeded": sum(r["successes"] for r in rows if r.get("unsolvable_runs") is not None),
-        "unsolvable_runs": unsolvable,
-        "budget_runs": sum(r.get("budget_runs") or 0 for r in rows),
-        "median_plan_ms": median([1000 * r["plan_time_s"] for r in rows if r.get("plan_time_s") is not None]),
-        "mean_replans": mean([r["mean_replans"] for r in rows if r.get("mean_replans") is not None]),
-        "median_replan_ms": median([r["median_replan_ms"] for r in rows if r.get("median_replan_ms") is not None]),
-        "max_replan_ms": max((r["max_replan_ms"] for r in rows if r.get("max_replan_ms") is not None), default=None),
+        "tasks": len(rows),
+        "success_rate": mean(r.success_rate for r in rows),
+        "runs_succeeded": sum(r.successes for r in rows),
+        "tasks_all_runs_succeeded": sum(r.successes == r.runs for r in rows),
+        "mean_extra_ticks": mean(r.mean_extra_ticks for r in rows),
+        "mean_extra_cost": mean(r.mean_extra_cost for r in rows),
+        "mean_events": mean(r.mean_events for r in rows),
+        "mean_nodes": mean(r.nodes for r in rows),
+        "mean_base_ticks": mean(r.base_ticks for r in rows),
+        "mean_condition_checks": mean(r.condition_checks for r in rows),
+        **(_replanning(rows) if kind in REPLANNED else {}),
     }
 
 
-def _pairs(rows: Sequence[dict[str, Any]]) -> list[tuple[float, float]]:
-    full = {(r["scenario"], r["task"]): r["success_rate"] for r in rows if r["tree"] == "full"}
-    path = {(r["scenario"], r["task"]): r["success_rate"] for r in rows if r["tree"] == "path"}
+def _replanning(rows: Sequence[RobustnessRow]) -> dict[str, Any]:
+    """The re-planning figures of a tree kind's rows: runs whose goal stayed reachable and how many
+    of them succeeded, re-plans per run, and the median of the rows' median re-planning times."""
+    replanned = [r for r in rows if r.unsolvable_runs is not None]
+    runs = sum(r.runs for r in replanned)
+    unsolvable = sum(r.unsolvable_runs or 0 for r in replanned)
+    return {
+        "reachable_runs": runs - unsolvable,
+        "reachable_runs_succeeded": sum(r.successes for r in replanned),
+        "unsolvable_runs": unsolvable,
+        "budget_runs": sum(r.budget_runs or 0 for r in rows),
+        "median_plan_ms": median(1000 * r.plan_time_s for r in rows if r.plan_time_s is not None),
+        "mean_replans": mean(r.mean_replans for r in rows),
+        "median_replan_ms": median(r.median_replan_ms for r in rows),
+        "max_replan_ms": max((r.max_replan_ms for r in rows if r.max_replan_ms is not None), default=None),
+    }
+
+
+def _pairs(rows: Sequence[RobustnessRow]) -> list[tuple[float, float]]:
+    full = {(r.scenario, r.task): r.success_rate for r in rows if r.tree == "full"}
+    path = {(r.scenario, r.task): r.success_rate for r in rows if r.tree == "path"}
     return [(full[key], path[key]) for key in full if key in path]
 
 
-def _counts(rows: Sequence[dict[str, Any]], field: str) -> dict[str, int]:
-    seen: dict[tuple[str, str], str] = {(r["scenario"], r["task"]): r[field] for r in rows}
-    counts: dict[str, int] = {}
-    for value in seen.values():
-        counts[value] = counts.get(value, 0) + 1
-    return dict(sorted(counts.items()))
+def _planned_with(rows: Sequence[RobustnessRow]) -> dict[str, int]:
+    """How many tasks each configuration planned (as a task's last row says), by name."""
+    seen = {(r.scenario, r.task): r.planned_with for r in rows}
+    return dict(sorted(Counter(seen.values()).items()))
 
 
-__all__ = ["SCENARIOS", "RobustnessConfig", "dataset_of", "plan_record", "run_robustness", "summarise", "task_seed"]
+__all__ = [
+    "SCENARIOS",
+    "RobustnessConfig",
+    "RobustnessRow",
+    "dataset_of",
+    "plan_record",
+    "run_robustness",
+    "summarise",
+    "task_seed",
+]

@@ -1,8 +1,9 @@
 """Run benchmark work items inline, in local worker processes, or on Ray, with a hard time limit.
 
 Every benchmark describes its runs as :class:`Work` items (a key, a picklable ``spec`` and the row
-fields known before running) and a module-level function ``spec -> row``. :func:`run_work` runs the
-items that ``results.jsonl`` does not hold yet and appends each row as it arrives, so an interrupted
+fields known before running) and a module-level function ``spec -> row`` (a
+:class:`~hbtp.bench.results.Row`, or a list of them). :func:`run_work` runs the items that
+``results.jsonl`` does not hold yet and appends each row as it arrives, so an interrupted
 benchmark resumes where it stopped. Rows depend only on their spec (every run is seeded from its own
 key), so the executor and the number of jobs change the order of the lines in ``results.jsonl`` and
 the measured times, nothing else; summaries are computed in key order.
@@ -31,41 +32,52 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any, TypeVar
 
 from pebble import ProcessExpired, ProcessPool
 from tqdm import tqdm
 
-from hbtp.bench.results import ResultsFile
+from hbtp.bench.results import JsonObject, ResultsFile, Row
 from hbtp.collector import searches_frozen
 from hbtp.errors import BackendError, InputError
 
 log = logging.getLogger(__name__)
 
-ExecutorName = Literal["inline", "local", "ray"]
-EXECUTORS: tuple[ExecutorName, ...] = ("local", "inline", "ray")
+
+class Executor(enum.StrEnum):
+    """Where the runs of a benchmark run (``--executor``)."""
+
+    LOCAL = "local"  #: worker processes on this machine (pebble), each run killable
+    INLINE = "inline"  #: in this process, one after the other (tests, debugging)
+    RAY = "ray"  #: Ray tasks (the ray extra)
+
+
+EXECUTORS: tuple[str, ...] = tuple(e.value for e in Executor)
 #: New worker pools a local run may start after pebble lost track of a dead worker (see _run_local).
 MAX_POOL_RESTARTS = 3
 
+R = TypeVar("R", bound=Row)
+
 #: A module-level function (picklable) from a spec to its row, or rows.
-RunFunction = Callable[[Any], dict[str, Any] | list[dict[str, Any]]]
+RunFunction = Callable[[Any], R | list[R]]
 
 
 @dataclass(frozen=True)
 class Work:
     """One run: ``key`` (names it in logs), ``spec`` (the run function's argument) and ``known``: the
-    fields of each row it produces that are known without running it, including the results.jsonl
-    key fields (a run is pending while one of its rows is missing; a killed or crashed run gets
-    these rows, unsolved). ``stage`` names the sub-part it belongs to (a planner, a scale, a
-    scenario): the progress bar shows it after the benchmark's description while the run starts."""
+    JSON fields of each row it produces that are known without running it, including the
+    results.jsonl key fields (a run is pending while one of its rows is missing; a killed or crashed
+    run gets these rows, unsolved: :func:`failed_rows`). ``stage`` names the sub-part it belongs to
+    (a planner, a scale, a scenario): the progress bar shows it after the benchmark's description
+    while the run starts."""
 
     key: tuple[Any, ...]
     spec: Any
-    known: dict[str, Any] | tuple[dict[str, Any], ...] = field(default_factory=dict)
+    known: JsonObject | tuple[JsonObject, ...] = field(default_factory=dict)
     stage: str = ""
 
     @property
-    def rows(self) -> tuple[dict[str, Any], ...]:
+    def rows(self) -> tuple[JsonObject, ...]:
         return self.known if isinstance(self.known, tuple) else (self.known,)
 
 
@@ -74,14 +86,16 @@ class Execution:
     """How to run: ``executor``, ``jobs`` in parallel, ``kill_after`` seconds per run (``None``: the
     benchmark's default), and whether to show a progress bar."""
 
-    executor: ExecutorName = "local"
+    executor: Executor = Executor.LOCAL
     jobs: int = 1
     kill_after: float | None = None
     progress: bool = True
 
     def __post_init__(self) -> None:
-        if self.executor not in EXECUTORS:
-            raise InputError(f"unknown executor {self.executor!r}; choose one of: {', '.join(EXECUTORS)}")
+        try:  # text from an untyped caller becomes the value
+            object.__setattr__(self, "executor", Executor(self.executor))
+        except ValueError:
+            raise InputError(f"unknown executor {self.executor!r}; choose one of: {', '.join(EXECUTORS)}") from None
         if self.jobs < 1:
             raise InputError(f"jobs must be at least 1, not {self.jobs}")
         if self.kill_after is not None and not self.kill_after > 0:
@@ -91,7 +105,7 @@ class Execution:
 #: The default: one local worker process, with a progress bar.
 DEFAULT_EXECUTION = Execution()
 #: In this process, quietly (tests, debugging).
-INLINE = Execution(executor="inline", progress=False)
+INLINE = Execution(executor=Executor.INLINE, progress=False)
 
 
 def hard_limit(time_limit: float, slack: float = 60.0) -> float:
@@ -107,25 +121,27 @@ class RunFailure(enum.Enum):
     CRASHED = "crashed"  # its worker died (out of memory, a crash in a native library)
 
 
-def failed_rows(work: Work, failure: RunFailure, seconds: float) -> list[dict[str, Any]]:
-    """The rows of a run that did not return: their known fields, unsolved, with the time it took."""
-    return [{**known, "status": failure.value, "solved": False, "time_s": round(seconds, 6)} for known in work.rows]
+def failed_rows(work: Work, failure: RunFailure, seconds: float, row_type: type[R]) -> list[R]:
+    """The rows of a run that did not return: their known fields, unsolved, with the time it took
+    (only those keys: a field the run would have written is absent)."""
+    failed = {"status": failure.value, "solved": False, "time_s": round(seconds, 6)}
+    return [row_type.from_json({**known, **failed}) for known in work.rows]
 
 
-def _pending(work: Work, results: ResultsFile) -> bool:
+def _pending(work: Work, results: ResultsFile[R]) -> bool:
     return any(results.key(row) not in results for row in work.rows)
 
 
-def _store(results: ResultsFile, rows: dict[str, Any] | list[dict[str, Any]]) -> None:
+def _store(results: ResultsFile[R], rows: R | list[R]) -> None:
     for row in rows if isinstance(rows, list) else [rows]:
-        if results.key(row) not in results:
+        if row.key not in results:
             results.append(row)
 
 
 def run_work(
-    function: RunFunction,
+    function: RunFunction[R],
     work: Sequence[Work],
-    results: ResultsFile,
+    results: ResultsFile[R],
     execution: Execution,
     *,
     kill_after: float,
@@ -144,12 +160,12 @@ def run_work(
     try:
         if not pending:
             return
-        if execution.executor == "inline":
+        if execution.executor is Executor.INLINE:
             for item in pending:
                 bar.starting(item)
                 _store(results, function(item.spec))
                 bar.update(1)
-        elif execution.executor == "local":
+        elif execution.executor is Executor.LOCAL:
             _run_local(function, pending, results, execution.jobs, limit, bar)
         else:
             _run_ray(function, pending, results, execution.jobs, limit, bar)
@@ -185,7 +201,7 @@ def _context() -> Any:
     return multiprocessing.get_context(method)
 
 
-def in_worker(function: RunFunction, spec: Any) -> dict[str, Any] | list[dict[str, Any]]:
+def in_worker(function: RunFunction[R], spec: Any) -> R | list[R]:
     """One run in a worker process: a short-lived process whose searches keep their objects frozen
     until the next one (:func:`hbtp.collector.searches_frozen`)."""
     with searches_frozen():
@@ -193,7 +209,7 @@ def in_worker(function: RunFunction, spec: Any) -> dict[str, Any] | list[dict[st
 
 
 def _run_local(
-    function: RunFunction, pending: Sequence[Work], results: ResultsFile, jobs: int, limit: float, bar: _Progress
+    function: RunFunction[R], pending: Sequence[Work], results: ResultsFile[R], jobs: int, limit: float, bar: _Progress
 ) -> None:
     """``jobs`` worker processes (a :class:`pebble.ProcessPool`): a run past ``limit`` seconds is
     stopped with its worker, and a worker that dies is charged to the one run it was running; the
@@ -223,11 +239,11 @@ def _run_local(
 
 
 def _drain(
-    function: RunFunction,
+    function: RunFunction[R],
     pool: ProcessPool,
     queue: list[Work],
     running: dict[Future[Any], tuple[Work, float]],
-    results: ResultsFile,
+    results: ResultsFile[R],
     jobs: int,
     limit: float,
     bar: _Progress,
@@ -242,27 +258,27 @@ def _drain(
         done, _ = wait(running, return_when=FIRST_COMPLETED)
         for future in done:
             item, started = running[future]
-            rows = _local_rows(future, item, time.monotonic() - started, limit)
+            rows = _local_rows(future, item, time.monotonic() - started, limit, results.row_type)
             del running[future]
             _store(results, rows)
             bar.update(1)
 
 
-def _local_rows(future: Future[Any], item: Work, seconds: float, limit: float) -> dict[str, Any] | list[dict[str, Any]]:
+def _local_rows(future: Future[Any], item: Work, seconds: float, limit: float, row_type: type[R]) -> R | list[R]:
     """The run's rows; a killed or crashed run's known rows. Any other error reaches the caller."""
     try:
-        rows: dict[str, Any] | list[dict[str, Any]] = future.result()
+        rows: R | list[R] = future.result()
     except TimeoutError:  # concurrent.futures.TimeoutError is TimeoutError since Python 3.11
         log.warning("run %s exceeded %.0f s; its worker was killed", item.key, limit)
-        return failed_rows(item, RunFailure.KILLED, seconds)
+        return failed_rows(item, RunFailure.KILLED, seconds, row_type)
     except ProcessExpired as error:
         log.warning("run %s killed its worker process (exit code %s); recorded as crashed", item.key, error.exitcode)
-        return failed_rows(item, RunFailure.CRASHED, seconds)
+        return failed_rows(item, RunFailure.CRASHED, seconds, row_type)
     return rows
 
 
 def _run_ray(
-    function: RunFunction, pending: Sequence[Work], results: ResultsFile, jobs: int, limit: float, bar: _Progress
+    function: RunFunction[R], pending: Sequence[Work], results: ResultsFile[R], jobs: int, limit: float, bar: _Progress
 ) -> None:
     try:
         import ray
@@ -299,7 +315,7 @@ def _run_ray(
                 item, started = running.pop(ref)
                 log.warning("run %s exceeded %.0f s; its Ray task was killed", item.key, limit)
                 ray.cancel(ref, force=True)
-                _store(results, failed_rows(item, RunFailure.KILLED, now - started))
+                _store(results, failed_rows(item, RunFailure.KILLED, now - started, results.row_type))
                 bar.update(1)
     finally:
         for ref in running:
@@ -313,7 +329,7 @@ __all__ = [
     "EXECUTORS",
     "INLINE",
     "Execution",
-    "ExecutorName",
+    "Executor",
     "Work",
     "failed_rows",
     "hard_limit",

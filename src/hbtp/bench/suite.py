@@ -44,6 +44,7 @@ from hbtp.bench.table1 import Table1Config, run_table1, setting_label, write_tab
 from hbtp.bench.table2 import BackendRecipe, Table2Config, run_table2, write_table2_report
 from hbtp.errors import InputError
 from hbtp.pipeline import LoopOptions
+from hbtp.planning.heuristic_names import HeuristicName
 from hbtp.planning.planners import Space
 
 log = logging.getLogger(__name__)
@@ -77,7 +78,12 @@ def table1_settings(quick: bool) -> list[tuple[str, Table1Config]]:
         (
             "full-lm",
             Table1Config(
-                space=Space.FULL, planners=("obtea",), hints="none", heuristic="lm", time_limit=5.0, limit=limit
+                space=Space.FULL,
+                planners=("obtea",),
+                hints="none",
+                heuristic=HeuristicName.LM,
+                time_limit=5.0,
+                limit=limit,
             ),
         ),
     ]
@@ -88,7 +94,11 @@ def fig3_settings(quick: bool) -> list[tuple[str, Fig3Config]]:
         base = Fig3Config(scales=(1.0, 2.0), time_limit=2.0, limit=3)
     else:
         base = Fig3Config(scales=(1.0, 1.5, 2.0, 2.5, 3.0), time_limit=5.0, limit=20)
-    return [("none", base), ("lm", replace(base, heuristic="lm")), ("pruned", replace(base, space=Space.PRUNED))]
+    return [
+        ("none", base),
+        ("lm", replace(base, heuristic=HeuristicName.LM)),
+        ("pruned", replace(base, space=Space.PRUNED)),
+    ]
 
 
 def fig4_setting(quick: bool) -> Fig4Config:

@@ -11,13 +11,13 @@ from typing import Any, Literal
 from hbtp.bench.paper import paper_scenario
 from hbtp.bench.plots import plot_table1
 from hbtp.bench.report import table1_section, write_report
-from hbtp.bench.results import ResultsFile, mean, median, write_json
+from hbtp.bench.results import ResultsFile, Row, mean, median, optional, write_json
 from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, RunFailure, Work, hard_limit, run_work
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
 from hbtp.llm.parse import hints_from_record
 from hbtp.planning import Limits, plan
-from hbtp.planning.heuristics import HeuristicName
+from hbtp.planning.heuristic_names import HeuristicName
 from hbtp.planning.planners import Space
 from hbtp.planning.result import Status
 
@@ -25,7 +25,6 @@ log = logging.getLogger(__name__)
 
 DATASET = "table1_robothow_100"
 SCENARIO = "robothow"
-KEY = ("task", "planner", "space", "hints", "heuristic")
 
 #: The paper's Table I and the reference implementation's figures (reference_results.md).
 PAPER = {
@@ -63,9 +62,37 @@ class Table1Config:
     space: Space = Space.PRUNED
     planners: tuple[str, ...] = ("bte", "obtea", "hbtp-o", "hbtp-s")
     hints: Literal["oracle", "none"] = "oracle"
-    heuristic: HeuristicName = "none"
+    heuristic: HeuristicName = HeuristicName.NONE
     time_limit: float = 5.0
     limit: int | None = None  # only the first N tasks
+
+
+@dataclass(frozen=True, kw_only=True)
+class Table1Row(Row):
+    """One planner on one task. A killed run's row has no ``goal``, ``generated`` or ``action_space``,
+    and ``None`` for ``explored`` and ``cost``."""
+
+    KEY = ("task", "planner", "space", "hints", "heuristic")
+
+    task: str
+    planner: str
+    space: str
+    hints: str
+    heuristic: str
+    p_star: int
+    status: str
+    solved: bool
+    time_s: float
+    explored: int | None
+    cost: int | None
+    goal: str | None = optional()
+    generated: int | None = optional()
+    action_space: int | None = optional()
+
+    @property
+    def timed_out(self) -> bool:
+        """Stopped by its time limit, or killed past its hard limit."""
+        return self.status in (Status.TIMEOUT.value, RunFailure.KILLED.value)
 
 
 @dataclass(frozen=True)
@@ -83,7 +110,7 @@ class Table1Run:
 def run_table1(config: Table1Config, out: Path, execution: Execution = DEFAULT_EXECUTION) -> dict[str, Any]:
     """Run (or resume) Table I into ``out``; returns the summary (also written to summary.json)."""
     records = load_dataset(DATASET)[: config.limit]
-    results = ResultsFile(out / "results.jsonl", KEY)
+    results = ResultsFile(out / "results.jsonl", Table1Row)
     work = [
         Work(
             (record.id, planner, config.space, config.hints, config.heuristic),
@@ -132,7 +159,7 @@ def write_table1_report(out: Path, summaries: dict[str, dict[str, Any]]) -> None
     plot_table1(summaries, out / "table1.png")
 
 
-def run_one(run: Table1Run) -> dict[str, Any]:
+def run_one(run: Table1Run) -> Table1Row:
     """Plan one Table I task (in a worker; the scenario is loaded once per process)."""
     scenario = paper_scenario(SCENARIO)
     record = run.record
@@ -148,41 +175,44 @@ def run_one(run: Table1Run) -> dict[str, Any]:
         heuristic=run.heuristic,
         limits=Limits(time_s=run.time_limit),
     )
+    return Table1Row(
+        task=record.id,
+        goal=record.goal.strip(),
+        planner=run.planner,
+        space=run.space,
+        hints=run.hints,
+        heuristic=run.heuristic,
+        status=result.status.value,
+        solved=result.solved,
+        cost=result.cost,
+        explored=result.stats.explored,
+        generated=result.stats.generated,
+        time_s=round(result.stats.time_s, 6),
+        action_space=result.stats.action_space,
+        p_star=len(record.optimal_actions),
+    )
+
+
+def planner_figures(rows: Sequence[Table1Row]) -> dict[str, Any]:
+    """One planner's Table I figures: counts over its rows, effort and cost over the solved ones."""
+    solved = [r for r in rows if r.solved]
+    times = [r.time_s for r in rows]
     return {
-        "task": record.id,
-        "goal": record.goal.strip(),
-        "planner": run.planner,
-        "space": run.space,
-        "hints": run.hints,
-        "heuristic": run.heuristic,
-        "status": result.status.value,
-        "solved": result.solved,
-        "cost": result.cost,
-        "explored": result.stats.explored,
-        "generated": result.stats.generated,
-        "time_s": round(result.stats.time_s, 6),
-        "action_space": result.stats.action_space,
-        "p_star": len(record.optimal_actions),
+        "tasks": len(rows),
+        "solved": len(solved),
+        "timeouts": sum(r.timed_out for r in rows),
+        "killed": sum(r.status == RunFailure.KILLED.value for r in rows),
+        "mean_explored": mean(r.explored for r in solved),
+        "mean_cost": mean(r.cost for r in solved),
+        "mean_time_s": mean(times),
+        "median_time_s": median(times),
+        "max_time_s": max(times, default=None),
+        "mean_explored_per_path": mean(r.explored / (r.p_star + 1) for r in solved if r.explored is not None),
     }
 
 
-def summarise(rows: Sequence[dict[str, Any]], config: Table1Config) -> dict[str, Any]:
-    planners: dict[str, Any] = {}
-    for planner in config.planners:
-        mine = [r for r in rows if r["planner"] == planner]
-        solved = [r for r in mine if r["solved"]]
-        planners[planner] = {
-            "tasks": len(mine),
-            "solved": len(solved),
-            "timeouts": sum(r["status"] in (Status.TIMEOUT.value, RunFailure.KILLED.value) for r in mine),
-            "killed": sum(r["status"] == RunFailure.KILLED.value for r in mine),
-            "mean_explored": mean([r["explored"] for r in solved]),
-            "mean_cost": mean([r["cost"] for r in solved]),
-            "mean_time_s": mean([r["time_s"] for r in mine]),
-            "median_time_s": median([r["time_s"] for r in mine]),
-            "max_time_s": max((r["time_s"] for r in mine), default=None),
-            "mean_explored_per_path": mean([r["explored"] / (r["p_star"] + 1) for r in solved]),
-        }
+def summarise(rows: Sequence[Table1Row], config: Table1Config) -> dict[str, Any]:
+    planners = {planner: planner_figures([r for r in rows if r.planner == planner]) for planner in config.planners}
     return {
         "dataset": DATASET,
         "scenario": SCENARIO,

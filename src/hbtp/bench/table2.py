@@ -14,12 +14,12 @@ import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 from hbtp.bench.paper import paper_scenario
 from hbtp.bench.plots import plot_table2
 from hbtp.bench.report import table2_section, write_report
-from hbtp.bench.results import ResultsFile, mean, write_json
+from hbtp.bench.results import ResultsFile, Row, mean, optional, write_json
 from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, RunFailure, Work, run_work
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
@@ -33,11 +33,9 @@ from hbtp.llm.pool import example_pool
 from hbtp.logic.tables import TaskTable
 from hbtp.pipeline import LoopOptions, LoopResult, Outcome, run_hbtp
 from hbtp.planning import Limits, plan, pruned_action_space, release_search_memory, resolve_hints
-from hbtp.planning.heuristics import HeuristicName
+from hbtp.planning.heuristic_names import HeuristicName
 
 log = logging.getLogger(__name__)
-
-KEY = ("scenario", "task", "backend", "run")
 
 #: Table II of the paper (gpt-4o-mini, 50 tasks per scenario, averaged over three runs).
 _PAPER_COLUMNS = (
@@ -76,27 +74,86 @@ class Table2Config:
     b_time_limit: float = 10.0
 
 
-def _row(scenario: Scenario, record: Record, backend_name: str, run: int, loop: LoopResult) -> dict[str, Any]:
+@dataclass(frozen=True, kw_only=True)
+class Table2Row(Row):
+    """The HBTP loop on one task with one backend in one run. The oracle columns (``A_star``,
+    ``p_star``) are in every finished row, the B-Time ones (``b_*``) in run 0's when B-Time is run.
+    A killed run's row has the fields known before it ran, with ``status`` and ``time_s``."""
+
+    KEY = ("scenario", "task", "backend", "run")
+
+    scenario: str
+    task: str
+    goal: str
+    backend: str
+    run: int
+    outcome: str
+    solved: bool
+    rounds: int
+    errors: tuple[str, ...]
+    #: Of the successful round (``None`` without one).
+    action_space: int | None = None
+    p_hat: int | None = None
+    cost: int | None = None
+    explored: int | None = optional()
+    planning_s: float | None = optional()
+    llm_s: float | None = optional()
+    repairs: int | None = optional()
+    A_star: int | None = optional()
+    p_star: int | None = optional()
+    b_time_s: float | None = optional()
+    b_solved: bool | None = optional()
+    b_lm_time_s: float | None = optional()
+    b_lm_solved: bool | None = optional()
+    status: str | None = optional()
+    time_s: float | None = optional()
+
+    @property
+    def loop_outcome(self) -> Outcome:
+        """How the loop ended (``outcome`` read back)."""
+        return Outcome.parse(self.outcome)
+
+
+@dataclass(frozen=True)
+class BTime:
+    """B-Time of one task: OBTEA in the full action space without a heuristic (the paper's
+    baseline), and with the landmark heuristic (``lm_``)."""
+
+    time_s: float
+    solved: bool
+    lm_time_s: float
+    lm_solved: bool
+
+
+def _row(
+    scenario: Scenario, record: Record, run: Table2Run, loop: LoopResult, a_star: int, b_time: BTime | None
+) -> Table2Row:
     rounds = loop.rounds
     success = rounds[-1] if loop.outcome.feedback_rounds is not None else None
-    return {
-        "scenario": scenario.name,
-        "task": record.id,
-        "goal": record.goal.strip(),
-        "backend": backend_name,
-        "run": run,
-        "outcome": loop.outcome.label,
-        "solved": loop.solved,
-        "rounds": len(rounds),
-        "action_space": success.action_space if success else None,
-        "p_hat": len(success.hints.path) if success else None,
-        "explored": success.explored if success else loop.result.stats.explored,
-        "cost": loop.result.cost,
-        "planning_s": round(loop.planning_seconds, 6),
-        "llm_s": round(loop.llm_seconds, 6),
-        "repairs": sum(len(r.repairs) for r in rounds),
-        "errors": [r.error for r in rounds if r.error],
-    }
+    return Table2Row(
+        scenario=scenario.name,
+        task=record.id,
+        goal=record.goal.strip(),
+        backend=run.backend,
+        run=run.run,
+        outcome=loop.outcome.label,
+        solved=loop.solved,
+        rounds=len(rounds),
+        action_space=success.action_space if success else None,
+        p_hat=len(success.hints.path) if success else None,
+        explored=success.explored if success else loop.result.stats.explored,
+        cost=loop.result.cost,
+        planning_s=round(loop.planning_seconds, 6),
+        llm_s=round(loop.llm_seconds, 6),
+        repairs=sum(len(r.repairs) for r in rounds),
+        errors=tuple(r.error for r in rounds if r.error),
+        A_star=a_star,
+        p_star=len(record.optimal_actions),
+        b_time_s=b_time.time_s if b_time else None,
+        b_solved=b_time.solved if b_time else None,
+        b_lm_time_s=b_time.lm_time_s if b_time else None,
+        b_lm_solved=b_time.lm_solved if b_time else None,
+    )
 
 
 @dataclass(frozen=True)
@@ -165,45 +222,39 @@ def _examples(scenario: Scenario) -> list[Record]:
     return _EXAMPLE_POOLS.of(scenario.task, lambda: example_pool(scenario), key=scenario.name)
 
 
-def run_one(run: Table2Run) -> dict[str, Any]:
+def run_one(run: Table2Run) -> Table2Row:
     """The HBTP loop on one task, with the oracle columns and the B-Time baseline."""
     scenario = paper_scenario(run.scenario)
     record = run.record
     loop = run_hbtp(scenario, record.goal, _backend(run.recipe, scenario, run.run), _examples(scenario), run.loop)
-    row = _row(scenario, record, run.backend, run.run, loop)
-    row.update(oracle_columns(scenario, record))
-    if run.b_time_limit > 0 and run.run == 0:
-        row.update(baseline_columns(scenario, record, run.b_time_limit))
-    return row
+    a_star = oracle_space(scenario, record)
+    b_time = b_time_of(scenario, record, run.b_time_limit) if run.b_time_limit > 0 and run.run == 0 else None
+    return _row(scenario, record, run, loop, a_star, b_time)
 
 
-def oracle_columns(scenario: Scenario, record: Record) -> dict[str, Any]:
-    """|A*| (the action space pruned by the record's own vital predicates and objects, plus its
-    plan) and |p*| (the length of its optimal plan)."""
+def oracle_space(scenario: Scenario, record: Record) -> int:
+    """|A*|: the action space pruned by the record's own vital predicates and objects, plus its plan."""
     task = scenario.task
-    return {
-        "A_star": len(pruned_action_space(task, resolve_hints(task, hints_from_record(record)))),
-        "p_star": len(record.optimal_actions),
-    }
+    return len(pruned_action_space(task, resolve_hints(task, hints_from_record(record))))
 
 
-def baseline_columns(scenario: Scenario, record: Record, time_limit: float) -> dict[str, Any]:
+def b_time_of(scenario: Scenario, record: Record, time_limit: float) -> BTime:
     """B-Time: OBTEA in the full action space without a heuristic (the paper's baseline), and the
     same with the landmark heuristic (hbtp's default planner)."""
-    row: dict[str, Any] = {}
-    for label, heuristic in (("b", "none"), ("b_lm", "lm")):
+    runs: list[tuple[float, bool]] = []
+    for heuristic in (HeuristicName.NONE, HeuristicName.LM):
         result = plan(
             scenario.task,
             record.goal,
             "obtea",
             mutexes=scenario.mutexes,
-            heuristic=cast(HeuristicName, heuristic),
+            heuristic=heuristic,
             limits=Limits(time_s=time_limit),
         )
-        row[f"{label}_time_s"] = round(result.stats.time_s, 6)
-        row[f"{label}_solved"] = result.solved
+        runs.append((round(result.stats.time_s, 6), result.solved))
         release_search_memory()
-    return row
+    (time_s, solved), (lm_time_s, lm_solved) = runs
+    return BTime(time_s, solved, lm_time_s, lm_solved)
 
 
 def kill_after(config: Table2Config, llm_timeout: float) -> float:
@@ -228,7 +279,7 @@ def run_table2(
         raise InputError(f"scenario {scenario.name} has no test set")
     records = load_dataset(dataset)[: config.limit]
     loop_options = replace(config.loop, prompt=replace(config.loop.prompt, exclude_same_goal=True))
-    results = ResultsFile(out / "results.jsonl", KEY)
+    results = ResultsFile(out / "results.jsonl", Table2Row)
     work = [
         Work(
             (scenario.name, record.id, config.backend, run),
@@ -271,22 +322,39 @@ def write_table2_report(out: Path, summaries: list[dict[str, Any]]) -> None:
     plot_table2(summaries, out / "table2.png")
 
 
-def summarise(rows: Sequence[dict[str, Any]], scenario: Scenario, dataset: str, config: Table2Config) -> dict[str, Any]:
-    def within(rounds: int | None) -> float | None:
-        """Success rate with at most ``rounds`` feedback rounds (``None``: also the fallback)."""
-        if not rows:
-            return None
-        hits = 0
-        for row, outcome in zip(rows, outcomes, strict=True):
-            needed = outcome.feedback_rounds
-            hits += (needed is not None and needed <= rounds) if rounds is not None else row["solved"]
-        return round(100.0 * hits / len(rows), 2)
+def _rate(hits: int, rows: Sequence[Table2Row]) -> float | None:
+    """``hits`` as a percentage of the rows, to 2 places (``None`` without rows)."""
+    return round(100.0 * hits / len(rows), 2) if rows else None
 
-    outcomes = [Outcome.parse(row["outcome"]) for row in rows]
-    successful = [r for r, outcome in zip(rows, outcomes, strict=True) if outcome.feedback_rounds is not None]
-    first = [r for r in rows if r["run"] == 0]
-    baseline = [r for r in first if "b_time_s" in r]
-    per_run = {run: [r for r in rows if r["run"] == run] for run in sorted({r["run"] for r in rows})}
+
+def success_rates(rows: Sequence[Table2Row]) -> dict[str, float | None]:
+    """``NF``, ``1F``, ``2F``, ``3F``: success with at most 0, 1, 2, 3 feedback rounds; ``final``:
+    also with the full-space fallback."""
+    needed = [row.loop_outcome.feedback_rounds for row in rows]
+    rates = {
+        label: _rate(sum(n is not None and n <= rounds for n in needed), rows)
+        for label, rounds in (("NF", 0), ("1F", 1), ("2F", 2), ("3F", 3))
+    }
+    rates["final"] = _rate(sum(row.solved for row in rows), rows)
+    return rates
+
+
+def _b_time(rows: Sequence[Table2Row]) -> dict[str, Any]:
+    """B-Time over the rows that ran it: solved tasks and mean seconds, without and with lm."""
+    baseline = [r for r in rows if r.b_time_s is not None]
+    return {
+        "b_tasks": len(baseline),
+        "b_solved": sum(bool(r.b_solved) for r in baseline),
+        "b_mean_time_s": mean(r.b_time_s for r in baseline),
+        "b_lm_solved": sum(bool(r.b_lm_solved) for r in baseline),
+        "b_lm_mean_time_s": mean(r.b_lm_time_s for r in baseline),
+    }
+
+
+def summarise(rows: Sequence[Table2Row], scenario: Scenario, dataset: str, config: Table2Config) -> dict[str, Any]:
+    successful = [r for r in rows if r.loop_outcome.feedback_rounds is not None]
+    first = [r for r in rows if r.run == 0]
+    runs = sorted({r.run for r in rows})
     return {
         "scenario": scenario.name,
         "dataset": dataset,
@@ -298,28 +366,20 @@ def summarise(rows: Sequence[dict[str, Any]], scenario: Scenario, dataset: str, 
             "Q": len(scenario.task.action_predicates),
             "O": len(scenario.task.objects),
         },
-        "NF": within(0),
-        "1F": within(1),
-        "2F": within(2),
-        "3F": within(3),
-        "final": within(None),
-        "fallback": round(100.0 * outcomes.count(Outcome.FALLBACK) / len(rows), 2) if rows else None,
-        "A_minus": mean([r["action_space"] for r in successful]),
-        "p_hat": mean([r["p_hat"] for r in successful]),
-        "explored": mean([r["explored"] for r in successful]),
-        "mean_planning_s": mean([r["planning_s"] for r in rows if "planning_s" in r]),
-        "mean_llm_s": mean([r["llm_s"] for r in rows if "llm_s" in r]),
-        "killed": sum(r.get("status") == RunFailure.KILLED.value for r in rows),
-        "NF_per_run": [summarise(mine, scenario, dataset, replace(config, runs=1))["NF"] for mine in per_run.values()]
-        if len(per_run) > 1
+        **success_rates(rows),
+        "fallback": _rate(sum(r.loop_outcome == Outcome.FALLBACK for r in rows), rows),
+        "A_minus": mean(r.action_space for r in successful),
+        "p_hat": mean(r.p_hat for r in successful),
+        "explored": mean(r.explored for r in successful),
+        "mean_planning_s": mean(r.planning_s for r in rows),
+        "mean_llm_s": mean(r.llm_s for r in rows),
+        "killed": sum(r.status == RunFailure.KILLED.value for r in rows),
+        "NF_per_run": [success_rates([r for r in rows if r.run == run])["NF"] for run in runs]
+        if len(runs) > 1
         else None,
-        "A_star": mean([r["A_star"] for r in first if "A_star" in r]),
-        "p_star": mean([r["p_star"] for r in first if "p_star" in r]),
+        "A_star": mean(r.A_star for r in first),
+        "p_star": mean(r.p_star for r in first),
         "b_time_limit": config.b_time_limit,
-        "b_tasks": len(baseline),
-        "b_solved": sum(r["b_solved"] for r in baseline),
-        "b_mean_time_s": mean([r["b_time_s"] for r in baseline]),
-        "b_lm_solved": sum(r["b_lm_solved"] for r in baseline),
-        "b_lm_mean_time_s": mean([r["b_lm_time_s"] for r in baseline]),
+        **_b_time(first),
         "paper": PAPER.get(scenario.name, {}),
     }

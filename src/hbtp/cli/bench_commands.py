@@ -5,7 +5,6 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import replace
 from pathlib import Path
-from typing import cast
 
 import click
 
@@ -14,7 +13,7 @@ from hbtp.bench.fig4 import Fig4Config, run_fig4
 from hbtp.bench.instructions import InstructionsBench, report, run_instructions
 from hbtp.bench.payoff import SETS, PayoffConfig, run_payoff
 from hbtp.bench.pddl_suite import PddlConfig, run_pddl
-from hbtp.bench.runner import EXECUTORS, Execution, ExecutorName
+from hbtp.bench.runner import EXECUTORS, Execution, Executor
 from hbtp.bench.suite import PARTS, SuiteConfig, run_suite
 from hbtp.bench.table1 import Table1Config, run_table1
 from hbtp.bench.table2 import BackendRecipe, Table2Config, run_table2, write_table2_report
@@ -32,11 +31,11 @@ from hbtp.cli.options import (
 from hbtp.datasets import read_dataset_file
 from hbtp.domains import scenario_names
 from hbtp.llm.backends.registry import BackendOptions, make_goal_backend
-from hbtp.llm.prompt import PromptOptions
+from hbtp.llm.prompt import PromptOptions, Retrieval
 from hbtp.pipeline import LoopOptions
 from hbtp.planning import PLANNERS
 from hbtp.planning.generate import LEVELS
-from hbtp.planning.heuristics import HEURISTICS, HeuristicName
+from hbtp.planning.heuristic_names import HEURISTICS, HeuristicName, heuristic_named
 from hbtp.planning.planners import Space
 
 #: Options several benchmarks share.
@@ -56,6 +55,7 @@ heuristic_option = click.option(
     type=click.Choice(list(HEURISTICS)),
     default="none",
     show_default=True,
+    callback=lambda _context, _parameter, value: heuristic_named(value),
     help="LLM-free heuristic (none: the paper's planners).",
 )
 task_time_limit_option = click.option(
@@ -64,7 +64,7 @@ task_time_limit_option = click.option(
 
 
 def _execution(jobs: int, executor: str, kill_after: float | None, no_progress: bool) -> Execution:
-    return Execution(executor=cast(ExecutorName, executor), jobs=jobs, kill_after=kill_after, progress=not no_progress)
+    return Execution(executor=Executor(executor), jobs=jobs, kill_after=kill_after, progress=not no_progress)
 
 
 #: ``--jobs``, ``--executor``, ``--kill-after``, ``--no-progress``, passed on as ``execution``.
@@ -118,7 +118,7 @@ def table1(
     space: str,
     planners: str,
     hints: str,
-    heuristic: str,
+    heuristic: HeuristicName,
     time_limit: float,
     limit: int | None,
     out_dir: str,
@@ -132,7 +132,7 @@ def table1(
         space=Space(space),
         planners=chosen,
         hints="none" if hints == "none" else "oracle",
-        heuristic=cast(HeuristicName, heuristic),
+        heuristic=heuristic,
         time_limit=time_limit,
         limit=limit,
     )
@@ -151,7 +151,7 @@ def table1(
 
 
 def _table2_loop(
-    planner: str, feedback_rounds: int, examples: int, retrieval: str, round_time_limit: float
+    planner: str, feedback_rounds: int, examples: int, retrieval: Retrieval, round_time_limit: float
 ) -> LoopOptions:
     prompt = PromptOptions(examples=examples, retrieval=retrieval)  # the style is the backend's own
     return LoopOptions(
@@ -304,7 +304,7 @@ def fig4(
 @out_dir_option
 @execution_options
 def fig3(
-    scales: str, planners: str, space: str, heuristic: str, time_limit: float, limit: int, out_dir: str,
+    scales: str, planners: str, space: str, heuristic: HeuristicName, time_limit: float, limit: int, out_dir: str,
     execution: Execution,
 ) -> int:  # fmt: skip
     """Figure 3: planning time against the action-space size (RobotHow grown by cloning objects) and |p*|."""
@@ -315,7 +315,7 @@ def fig3(
         scales=factors,
         planners=comma_choices(planners, PLANNERS, "--planners", "planner"),
         space=Space(space),
-        heuristic=cast(HeuristicName, heuristic),
+        heuristic=heuristic,
         time_limit=time_limit,
         limit=limit,
     )
@@ -455,8 +455,9 @@ def payoff(
 @click.option(
     "--heuristic",
     type=click.Choice(list(HEURISTICS)),
-    default=PddlConfig.heuristic,
+    default=PddlConfig.heuristic.value,
     show_default=True,
+    callback=lambda _context, _parameter, value: heuristic_named(value),
     help="LLM-free heuristic (seq: lmcut and the state equation, the strongest; needs the lp extra).",
 )
 @click.option(
@@ -474,7 +475,7 @@ def payoff(
 def pddl(
     folder: Path,
     planners: str,
-    heuristic: str,
+    heuristic: HeuristicName,
     time_limit: float,
     validate: bool,
     symmetry: bool,
@@ -486,7 +487,7 @@ def pddl(
     if not (time_limit > 0 and time_limit < float("inf")):
         raise click.BadParameter("must be a positive number of seconds", param_hint="--time-limit")
     chosen = comma_choices(planners, PLANNERS, "--planners", "planner")
-    config = PddlConfig(chosen, cast(HeuristicName, heuristic), time_limit, validate, symmetry)
+    config = PddlConfig(chosen, heuristic, time_limit, validate, symmetry)
     summary = run_pddl(folder, config, Path(out_dir), execution)
     click.echo(f"{'planner':8} {'verified':>9} {'median s':>9}   per domain")
     for name, row in summary["planners"].items():

@@ -21,7 +21,7 @@ from hbtp.errors import InputError
 from hbtp.files import check_output
 from hbtp.llm.backends.adapters import AdapterChoice
 from hbtp.llm.backends.registry import BackendOptions
-from hbtp.llm.prompt import RETRIEVALS
+from hbtp.llm.prompt import RETRIEVALS, Retrieval
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -325,6 +325,7 @@ retrieval_option = click.option(
     type=click.Choice(list(RETRIEVALS)),
     default="lexical",
     show_default=True,
+    callback=lambda _context, _parameter, value: Retrieval.named(value),
     help="How demonstrations are chosen (embeddings: the optional extra).",
 )
 round_time_limit_option = click.option(

@@ -31,12 +31,12 @@ from hbtp.cli.options import (
     time_limit_option,
 )
 from hbtp.llm.backends.registry import BackendOptions, LlmSpec
-from hbtp.llm.prompt import PromptOptions
+from hbtp.llm.prompt import PromptOptions, Retrieval
 from hbtp.memory import memory_cap
 from hbtp.pipeline import DEFAULT_PROBE_SECONDS, LoopOptions
 from hbtp.pipeline.loop import Progress
 from hbtp.planning import PLANNER_DESCRIPTIONS, PLANNERS, Limits
-from hbtp.planning.heuristics import DEFAULT_HEURISTIC, HEURISTICS, HeuristicName, heuristic_named
+from hbtp.planning.heuristic_names import DEFAULT_HEURISTIC, HEURISTICS, HeuristicName, heuristic_named
 from hbtp.planning.planners import Space
 
 log = logging.getLogger(__name__)
@@ -88,7 +88,7 @@ search_options = option_group(
     click.option(
         "--heuristic",
         type=click.Choice(list(HEURISTICS)),
-        default=DEFAULT_HEURISTIC,
+        default=DEFAULT_HEURISTIC.value,
         show_default=True,
         callback=lambda _context, _parameter, value: heuristic_named(value),
         help="LLM-free admissible heuristic: lm (landmarks, max with hmax), lmcut (also h² and LM-cut: stronger, "
@@ -170,7 +170,7 @@ class LlmRequest:
     grammar_retries: int
     examples: int
     examples_from: str | None
-    retrieval: str
+    retrieval: Retrieval
     round_time_limit: float
     no_fallback: bool
     seed: int

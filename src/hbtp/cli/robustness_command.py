@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 import click
 
@@ -13,7 +13,7 @@ from hbtp.cli.bench_commands import execution_options, out_dir_option
 from hbtp.cli.options import comma_choices, comma_numbers, option_group
 from hbtp.cli.run_command import exit_codes
 from hbtp.planning import PLANNERS
-from hbtp.planning.heuristics import DEFAULT_HEURISTIC, HEURISTICS, HeuristicName
+from hbtp.planning.heuristic_names import DEFAULT_HEURISTIC, HEURISTICS, HeuristicName, heuristic_named
 
 
 def _figure(value: float | None, percent: bool = False) -> str:
@@ -28,7 +28,7 @@ def _config(
     seed: int,
     scenario_text: str,
     planner: str,
-    heuristic: str,
+    heuristic: HeuristicName,
     max_ticks: int,
     robust: int,
     limit: int | None,
@@ -47,7 +47,7 @@ def _config(
         limit=limit,
         max_ticks=max_ticks,
         planner=planner,
-        heuristic=cast(HeuristicName, heuristic),
+        heuristic=heuristic,
         robust=robust,
         replan=replan is not None,
         repair=replan is not False,
@@ -78,8 +78,9 @@ robustness_options = option_group(
     click.option(
         "--heuristic",
         type=click.Choice(list(HEURISTICS)),
-        default=DEFAULT_HEURISTIC,
+        default=DEFAULT_HEURISTIC.value,
         show_default=True,
+        callback=lambda _context, _parameter, value: heuristic_named(value),
         help="LLM-free heuristic.",
     ),
     click.option(

@@ -6,7 +6,7 @@ import json
 from collections.abc import Iterable, Iterator
 from contextlib import ExitStack
 from pathlib import Path
-from typing import IO, Any, cast
+from typing import IO, Any
 
 import click
 
@@ -157,7 +157,7 @@ def validate_optimal(
         out: IO[str] | None = None
         if out_file:
             out = stack.enter_context(_open_out(Path(out_file)))
-        for row in _rows(runs, time_limit, limit, cast(Engine, engine)):
+        for row in _rows(runs, time_limit, limit, Engine(engine)):
             rows.append(row)
             if out is not None:
                 out.write(json.dumps(row, ensure_ascii=False) + "\n")

@@ -17,6 +17,7 @@ to the question.
 
 from __future__ import annotations
 
+import enum
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
@@ -44,7 +45,22 @@ each object ({examples}), in execution order, minimising the total cost.
 6) Follow the demonstrations' format exactly: three lines, no explanations."""
 
 
-RETRIEVALS = ("lexical", "embeddings")
+class Retrieval(enum.StrEnum):
+    """How the demonstrations of a prompt are chosen (``--retrieval``)."""
+
+    LEXICAL = "lexical"  #: shared literals, objects and predicates (:func:`retrieve_examples`)
+    EMBEDDINGS = "embeddings"  #: sentence embeddings (the optional extra, :mod:`hbtp.llm.embeddings`)
+
+    @classmethod
+    def named(cls, text: str) -> Retrieval:
+        """``text`` as a retrieval (:class:`~hbtp.errors.InputError` for another)."""
+        try:
+            return cls(text)
+        except ValueError:
+            raise InputError(f"unknown retrieval {text!r}; choose one of: {', '.join(RETRIEVALS)}") from None
+
+
+RETRIEVALS: tuple[str, ...] = tuple(r.value for r in Retrieval)
 
 #: Three short lines; a base model that starts repeating itself is cut off here.
 COMPLETION_MAX_TOKENS = 160
@@ -64,7 +80,7 @@ class PromptOptions:
     include_objects: bool = True  # list category members in the chat prompt
     max_tokens: int = 256  # chat; completion replies get COMPLETION_MAX_TOKENS
     exclude_same_goal: bool = False  # benchmarks: never show a demonstration of the very goal asked
-    retrieval: str = "lexical"  # or "embeddings" (the optional extra)
+    retrieval: Retrieval = Retrieval.LEXICAL
     #: Constrained decoding (:mod:`hbtp.llm.constrain`): requests carry the reply's grammar and
     #: schema, with lists bounded by the demonstrations shown; backends that can, enforce it.
     constrain: bool = True
@@ -73,6 +89,7 @@ class PromptOptions:
     taught: bool = False
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "retrieval", Retrieval.named(self.retrieval))
         if isinstance(self.style, str):
             try:
                 object.__setattr__(self, "style", PromptStyle(self.style))
@@ -113,7 +130,11 @@ def _jaccard(left: frozenset[str], right: frozenset[str]) -> float:
 
 
 def retrieve_examples(
-    goal: str, pool: Sequence[Record], k: int, exclude_goal: bool = False, retrieval: str = "lexical"
+    goal: str,
+    pool: Sequence[Record],
+    k: int,
+    exclude_goal: bool = False,
+    retrieval: Retrieval = Retrieval.LEXICAL,
 ) -> list[Record]:
     """The ``k`` records of ``pool`` most similar to ``goal`` (ties: shorter goals, then file order).
 
@@ -122,11 +143,10 @@ def retrieve_examples(
     """
     if k <= 0 or not pool:
         return []
-    if retrieval not in RETRIEVALS:
-        raise InputError(f"unknown retrieval {retrieval!r}; choose one of: {', '.join(RETRIEVALS)}")
+    retrieval = Retrieval.named(retrieval)  # (text from an untyped caller is checked here)
     literals, objects, predicates = _goal_features(goal)
     dense: list[float] | None = None
-    if retrieval == "embeddings":
+    if retrieval is Retrieval.EMBEDDINGS:
         from hbtp.llm.embeddings import similarities
 
         dense = similarities(goal, [record.goal for record in pool])

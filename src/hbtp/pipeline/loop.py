@@ -42,7 +42,7 @@ from hbtp.llm.redact import redact
 from hbtp.logic.names import ActionNames
 from hbtp.logic.task import Goal
 from hbtp.pipeline.results import REPEATED, Exchange, LoopResult, Outcome, RoundRecord, call_record
-from hbtp.planning.heuristics import DEFAULT_HEURISTIC, HeuristicName
+from hbtp.planning.heuristic_names import DEFAULT_HEURISTIC, HeuristicName
 from hbtp.planning.hints import Hints, pruned_action_space, resolve_hints
 from hbtp.planning.limits import Limits
 from hbtp.planning.planners import Space, confirmed_search, plan, planner_config
@@ -70,7 +70,7 @@ class LoopOptions:
     round_time_limit: float = 5.0
     fallback: bool = True
     fallback_time_limit: float = 60.0
-    heuristic: HeuristicName = "none"  # inside the pruned rounds (the paper's planners by default)
+    heuristic: HeuristicName = HeuristicName.NONE  # inside the pruned rounds (the paper's planners by default)
     fallback_heuristic: HeuristicName = DEFAULT_HEURISTIC
     #: Its ``style`` (``None`` by default) is the backend's own prompt style.
     prompt: PromptOptions = field(default_factory=PromptOptions)

@@ -31,6 +31,7 @@ from hbtp.domains.mutex import Mutexes
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom, parse_atom, parse_conjunction
 from hbtp.logic.task import Goal, GroundTask, State
+from hbtp.planning.heuristic_names import HeuristicName
 from hbtp.planning.hints import Hints
 from hbtp.planning.limits import Limits
 from hbtp.planning.planners import plan
@@ -221,7 +222,7 @@ def _label(task: GroundTask, literals: frozenset[int], mutexes: Mutexes | None, 
     """``literals`` with an optimal plan, or ``None`` when the bounded search does not find one or
     a plan's action cannot be written in the datasets' spelling."""
     goal = task.resolve_goal([task.atoms[i] for i in sorted(literals)])
-    result = plan(task, goal, "obtea", heuristic="lm", mutexes=mutexes, limits=limits)
+    result = plan(task, goal, "obtea", heuristic=HeuristicName.LM, mutexes=mutexes, limits=limits)
     if not result.solved or not all(_writable(task.actions[i].signature) for i in result.solution):
         log.debug("skipping %s: %s", goal, result.status.value)
         return None

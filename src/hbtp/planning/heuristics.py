@@ -39,34 +39,19 @@ import math
 from array import array
 from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from types import ModuleType
-from typing import Literal, Protocol, overload
+from typing import Protocol, overload
 
 from hbtp import compiled as extensions
 from hbtp.deadline import Deadline
-from hbtp.errors import InputError
 from hbtp.logic.relevance import relevant_to
 from hbtp.logic.tables import TaskTable
 from hbtp.logic.task import GroundAction, GroundTask
 from hbtp.planning.flow import StateEquation
+from hbtp.planning.heuristic_names import HeuristicName
 from hbtp.planning.lmcut import LmCut
 from hbtp.planning.pairs import COMPILED, PairCosts, cheap_kernel, mask_bytes, pair_costs
 
-HeuristicName = Literal["none", "hmax", "lm", "lmcut", "seq"]
-_BY_NAME: dict[str, HeuristicName] = {"none": "none", "hmax": "hmax", "lm": "lm", "lmcut": "lmcut", "seq": "seq"}
-HEURISTICS: tuple[str, ...] = tuple(_BY_NAME)
-#: The heuristic hbtp plans with unless told otherwise (``hbtp plan``, :func:`hbtp.planning.plan`,
-#: re-planning): landmarks, admissible, so OBTEA stays optimal. The paper's planners had none; its
-#: benchmarks say ``none`` where they reproduce them.
-DEFAULT_HEURISTIC: HeuristicName = "lm"
 _SETUP = "setting up the heuristic"
-
-
-def heuristic_named(text: str) -> HeuristicName:
-    """``text`` as a heuristic's name (:class:`~hbtp.errors.InputError` for another)."""
-    try:
-        return _BY_NAME[text]
-    except KeyError:
-        raise InputError(f"unknown heuristic {text!r}; choose one of: {', '.join(HEURISTICS)}") from None
 
 
 class Heuristic(Protocol):
@@ -483,7 +468,7 @@ class Deferred:
 
 
 def build_heuristic(
-    name: str,
+    name: HeuristicName,
     task: GroundTask,
     actions: Sequence[GroundAction],
     goal: Collection[int],
@@ -499,18 +484,16 @@ def build_heuristic(
     (still admissible and consistent for those costs) and ``hmax`` is recomputed. Past ``deadline``
     it raises :class:`~hbtp.deadline.TimeLimitReached`.
     """
-    if name == "none":
+    if name == HeuristicName.NONE:
         return None
     analysis = analyse_space(task, actions, deadline)
     discounts = discounts or {}
     plain = scale == 1.0 and not discounts
-    if name == "hmax":
+    if name == HeuristicName.HMAX:
         if plain:
             return HMax(analysis.hmax)
         costs = {a.index: discounts.get(a.index, a.cost * scale) for a in actions}
         return HMax(hmax_table(task, actions, costs, deadline))
-    if name not in ("lm", "lmcut", "seq"):
-        raise ValueError(f"unknown heuristic {name!r}")
     # Shares: cached for the space (relevant = atoms some precondition needs), scaled, then patched
     # for goal atoms no precondition needs and for discounted actions (their values only go down).
     share = list(analysis.shares) if scale == 1.0 else [x * scale for x in analysis.shares]
@@ -529,14 +512,14 @@ def build_heuristic(
                     share[atom] = value
     hmax = analysis.hmax if plain else None
     cheap = LandmarkSum(analysis.landmarks, share, task.initial_state, analysis.pre_landmarks, hmax)
-    if name == "lm":
+    if name == HeuristicName.LM:
         return cheap
     step_cost = None if plain else (lambda a: discounts.get(a.index, a.cost * scale))
     return _deferred(name, task, actions, goal, cheap, step_cost, deadline)
 
 
 def _deferred(
-    name: str,
+    name: HeuristicName,
     task: GroundTask,
     actions: Sequence[GroundAction],
     goal: Collection[int],
@@ -556,7 +539,7 @@ def _deferred(
         lmcut = _FULL_LMCUT.of(task, lambda: LmCut(task, space, None, deadline))
     else:
         lmcut = LmCut(task, space, changed, deadline)
-    if name == "lmcut":
+    if name == HeuristicName.LMCUT:
         return Deferred(_with_pairs(cheap, pairs), lmcut)
     equation = StateEquation(task, space, pairs, changed, deadline)
     return Deferred(_with_pairs(cheap, pairs), equation, lmcut)

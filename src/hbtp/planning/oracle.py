@@ -9,6 +9,7 @@ from hbtp.domains.mutex import Mutexes
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError, PlanningError
 from hbtp.logic.task import Goal, GroundTask
+from hbtp.planning.heuristic_names import HeuristicName
 from hbtp.planning.hints import Hints
 from hbtp.planning.limits import Limits
 from hbtp.planning.planners import Space, plan
@@ -22,7 +23,7 @@ def optimal_plan(
     Only the *proved* ``mutexes`` prune: declared ones may be false and could cut off the optimum.
     """
     proved = mutexes.proved_only() if mutexes is not None else None
-    result = plan(task, goal, "obtea", space=Space.FULL, mutexes=proved, heuristic="lm", limits=limits)
+    result = plan(task, goal, "obtea", space=Space.FULL, mutexes=proved, heuristic=HeuristicName.LM, limits=limits)
     if not result.solved:
         raise PlanningError(f"no optimal plan for the oracle: {result.status.value} ({result.message})")
     return list(result.solution)
@@ -48,7 +49,13 @@ def optimal_cost_function(scenario: Scenario, limits: Limits | None = None) -> C
     def optimal_cost(record: HasGoal) -> int | None:
         try:
             result = plan(
-                scenario.task, record.goal, "obtea", space=Space.FULL, mutexes=mutexes, heuristic="lm", limits=limits
+                scenario.task,
+                record.goal,
+                "obtea",
+                space=Space.FULL,
+                mutexes=mutexes,
+                heuristic=HeuristicName.LM,
+                limits=limits,
             )
         except InputError:
             return None

@@ -21,7 +21,7 @@ from hbtp.planning.costs import (
     check_alpha,
 )
 from hbtp.planning.flow import require_solver
-from hbtp.planning.heuristics import DEFAULT_HEURISTIC, HEURISTICS, HeuristicName
+from hbtp.planning.heuristic_names import DEFAULT_HEURISTIC, HeuristicName, heuristic_named
 from hbtp.planning.hints import Hints, ResolvedHints, pruned_action_space, resolve_hints
 from hbtp.planning.limits import Limits
 from hbtp.planning.result import PlanResult, SearchStats, Status
@@ -74,9 +74,8 @@ def planner_config(
         base = PLANNERS[name]
     except KeyError:
         raise InputError(f"unknown planner {name!r}; choose one of: {', '.join(PLANNERS)}") from None
-    if heuristic not in HEURISTICS:
-        raise InputError(f"unknown heuristic {heuristic!r}; choose one of: {', '.join(HEURISTICS)}")
-    if heuristic == "seq":
+    heuristic = heuristic_named(heuristic)  # a name given as text by an untyped caller: checked here
+    if heuristic is HeuristicName.SEQ:
         require_solver()
     costs = base.costs.with_alpha(check_alpha(alpha))
     return dataclasses.replace(base, heuristic=heuristic, costs=costs, symmetry=symmetry)

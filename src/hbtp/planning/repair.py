@@ -64,8 +64,7 @@ MAX_CONDITIONS = 300_000
 def repairable(config: SearchConfig) -> bool:
     """Whether searches of ``config`` can be continued from another state with optimal answers."""
     costs = config.costs
-    consistent = config.heuristic in ("none", "hmax", "lm")
-    return consistent and not costs.follows_hints and costs.orders_by_heuristic and not config.symmetry
+    return config.heuristic.consistent and not costs.follows_hints and costs.orders_by_heuristic and not config.symmetry
 
 
 class RepairableSearch(_Search):

@@ -16,7 +16,8 @@ from hbtp.logic.subsets import SubsetIndex
 from hbtp.logic.task import Goal, GroundAction, GroundTask
 from hbtp.planning.costs import Number, StepCosts
 from hbtp.planning.execution import execute_expansions
-from hbtp.planning.heuristics import Deferred, Heuristic, HeuristicName, build_heuristic
+from hbtp.planning.heuristic_names import HeuristicName
+from hbtp.planning.heuristics import Deferred, Heuristic, build_heuristic
 from hbtp.planning.hints import ResolvedHints
 from hbtp.planning.limits import LimitWatch
 from hbtp.planning.result import Expansion, PlanResult, SearchStats, Status
@@ -31,10 +32,14 @@ class SearchConfig:
 
     name: str
     costs: StepCosts
-    heuristic: HeuristicName = "none"
+    heuristic: HeuristicName = HeuristicName.NONE
     #: Prune conditions symmetric to one held at no higher g (interchangeable objects, see
     #: :mod:`hbtp.planning.symmetry`): still optimal, a smaller tree. Only without p̂, in the whole space.
     symmetry: bool = False
+
+    def __post_init__(self) -> None:
+        # A name given as text (an untyped caller) becomes the value, so every use can trust it.
+        object.__setattr__(self, "heuristic", HeuristicName(self.heuristic))
 
 
 # An open-list entry: (priority, owed, unmet, order, g, condition, stage), compared left to right:

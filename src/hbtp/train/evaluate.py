@@ -36,6 +36,7 @@ from hbtp.llm.prompt import PromptOptions, build_request
 from hbtp.llm.vocabulary import as_names
 from hbtp.logic.names import ActionNames
 from hbtp.planning import Limits, plan
+from hbtp.planning.heuristic_names import HeuristicName
 from hbtp.planning.hints import Hints
 from hbtp.planning.planners import Space
 from hbtp.train.examples import Example, ExampleKind, goal_key
@@ -100,7 +101,7 @@ def evaluate(scenario: Scenario, adapter: Path | None, examples: Sequence[Exampl
             exact += hints.path == label.path
             covered += set(label.predicates) <= set(hints.predicates) and set(label.objects) <= set(hints.objects)
             result = plan(
-                scenario.task, example.goal, "hbtp-s", hints=hints, space=Space.PRUNED, heuristic="none",
+                scenario.task, example.goal, "hbtp-s", hints=hints, space=Space.PRUNED, heuristic=HeuristicName.NONE,
                 mutexes=scenario.mutexes, limits=Limits(time_s=ROUND_SECONDS),
             )  # fmt: skip
             solved += result.solved

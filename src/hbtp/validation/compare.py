@@ -19,6 +19,7 @@ from hbtp.domains.scenarios import ScenarioOptions
 from hbtp.errors import InputError
 from hbtp.logic.task import Goal, GroundTask
 from hbtp.planning import Limits, PlanResult, Status, plan
+from hbtp.planning.heuristic_names import HeuristicName
 from hbtp.planning.planners import Space
 from hbtp.validation.fast_downward import (
     COMPARE_TIME_LIMIT,
@@ -43,7 +44,7 @@ def has_declared_mutexes(mutexes: Mutexes) -> bool:
 def run_obtea(task: GroundTask, goal: Goal, mutexes: Mutexes | None, time_limit: float) -> ObteaRun:
     """OBTEA on the full action space with the landmark heuristic."""
     limits = Limits(time_s=time_limit)
-    result = plan(task, goal, "obtea", space=Space.FULL, mutexes=mutexes, heuristic="lm", limits=limits)
+    result = plan(task, goal, "obtea", space=Space.FULL, mutexes=mutexes, heuristic=HeuristicName.LM, limits=limits)
     return ObteaRun(result.status, result.cost if result.solved else None, result.stats.time_s)
 
 
@@ -54,7 +55,7 @@ def decided(row: Mapping[str, Any]) -> bool:
 
 
 def compare_record(
-    scenario: Scenario, record: Record, *, time_limit: float = COMPARE_TIME_LIMIT, engine: Engine = "auto"
+    scenario: Scenario, record: Record, *, time_limit: float = COMPARE_TIME_LIMIT, engine: Engine = Engine.AUTO
 ) -> dict[str, Any]:
     """Compare OBTEA (with the scenario's mutexes and without) and Fast Downward on one record.
 
@@ -112,7 +113,7 @@ def compare_files(domain_file: Path, problem_file: Path, *, time_limit: float = 
         scenario.task,
         goal,
         "obtea",
-        heuristic="none",
+        heuristic=HeuristicName.NONE,
         mutexes=scenario.mutexes.proved_only(),
         limits=Limits(time_s=left),
     )
@@ -157,7 +158,7 @@ def iter_comparisons(
     *,
     time_limit: float = COMPARE_TIME_LIMIT,
     limit: int | None = None,
-    engine: Engine = "auto",
+    engine: Engine = Engine.AUTO,
 ) -> Iterator[dict[str, Any]]:
     """Compare every record of ``dataset_name`` (a shipped dataset or a file; default: the scenario's
     Table II test set), one row each, in the paper's action space (the benchmarks' optima it checks)."""
@@ -187,7 +188,7 @@ def compare_optimal(
     *,
     time_limit: float = COMPARE_TIME_LIMIT,
     limit: int | None = None,
-    engine: Engine = "auto",
+    engine: Engine = Engine.AUTO,
 ) -> list[dict[str, Any]]:
     """Rows of :func:`compare_record` for the first ``limit`` records (all by default) of a dataset."""
     return list(iter_comparisons(scenario_name, dataset_name, time_limit=time_limit, limit=limit, engine=engine))

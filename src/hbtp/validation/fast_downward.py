@@ -19,7 +19,7 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any, Literal, NamedTuple
+from typing import Any, NamedTuple
 
 from hbtp.domains import write_grounded
 from hbtp.domains.pddl_writer import GOAL_ACTION, keyword_safe_predicates
@@ -47,8 +47,17 @@ _TRANSLATION = "output.sas"
 _OPERATORS_LINE = re.compile(r"^Translator operators: (\d+)$", re.MULTILINE)
 #: ``auto`` runs the driver for tasks with more grounded actions than this.
 AUTO_DRIVER_ACTIONS = 1000
-Engine = Literal["auto", "unified-planning", "driver"]
-ENGINES: tuple[Engine, ...] = ("auto", "unified-planning", "driver")
+
+
+class Engine(enum.StrEnum):
+    """How Fast Downward is run (``hbtp validate --engine``)."""
+
+    AUTO = "auto"  #: the driver for large tasks, unified-planning for the others
+    UNIFIED_PLANNING = "unified-planning"  #: through unified-planning's Fast Downward engine
+    DRIVER = "driver"  #: Fast Downward's own driver on exported PDDL files
+
+
+ENGINES: tuple[str, ...] = tuple(e.value for e in Engine)
 #: Seconds per planner run in a comparison: on RobotHow's record 40 both OBTEA without mutexes and
 #: Fast Downward need close to a minute.
 COMPARE_TIME_LIMIT = 300.0
@@ -124,17 +133,17 @@ def require_extra() -> None:
         raise BackendError(f"Fast Downward is not available ({error}); {INSTALL_HINT}") from None
 
 
-def choose_engine(task: GroundTask, engine: Engine = "auto") -> Literal["unified-planning", "driver"]:
+def choose_engine(task: GroundTask, engine: Engine = Engine.AUTO) -> Engine:
     """The way ``auto`` runs Fast Downward on ``task`` (other choices are returned unchanged)."""
-    if engine == "auto":
-        return "driver" if len(task.actions) > AUTO_DRIVER_ACTIONS else "unified-planning"
+    if engine == Engine.AUTO:
+        return Engine.DRIVER if len(task.actions) > AUTO_DRIVER_ACTIONS else Engine.UNIFIED_PLANNING
     if engine in ENGINES:
-        return engine
+        return Engine(engine)
     raise InputError(f"unknown engine {engine!r}; choose one of: {', '.join(ENGINES)}")
 
 
 def run_fast_downward(
-    task: GroundTask, goal: Goal, *, time_limit: float = 60.0, engine: Engine = "auto"
+    task: GroundTask, goal: Goal, *, time_limit: float = 60.0, engine: Engine = Engine.AUTO
 ) -> FastDownwardRun:
     """Solve ``goal`` optimally with Fast Downward; its plan is replayed in ``task`` to check it."""
     require_extra()
@@ -146,7 +155,7 @@ def run_fast_downward(
         domain_file, problem_file = Path(folder, "domain.pddl"), Path(folder, "problem.pddl")
         domain_file.write_text(domain_text, encoding="utf-8")
         problem_file.write_text(problem_text, encoding="utf-8")
-        if chosen == "driver":
+        if chosen is Engine.DRIVER:
             outcome = _solve_with_driver(domain_file, problem_file, time_limit)
         else:
             key = domain_text + problem_text.split("(:goal", 1)[0]
@@ -158,7 +167,7 @@ def run_fast_downward(
 
 
 def fast_downward_cost(
-    task: GroundTask, goal: Goal, *, time_limit: float = 60.0, engine: Engine = "auto"
+    task: GroundTask, goal: Goal, *, time_limit: float = 60.0, engine: Engine = Engine.AUTO
 ) -> int | None:
     """Fast Downward's optimal cost of ``goal`` in ``task``; ``None`` when it proves the goal unsolvable.
 
