@@ -266,10 +266,18 @@ def _named(kind: str, position: int, root: str = "") -> dict[str, str]:
 
 
 def _comment_text(text: str) -> str:
-    """Text that is safe inside an XML comment (no ``--``, no trailing ``-``)."""
+    """Text that is safe inside an XML comment (no ``--``, no trailing ``-``), and reads back
+    (:func:`_uncomment_text`): ``%`` is written ``%25`` and a ``-`` after a ``-`` or at the end ``%2D``
+    (PDDL names may hold ``--``)."""
+    text = text.replace("%", "%25")
     while "--" in text:
-        text = text.replace("--", "- -")
-    return text.rstrip("-")
+        text = text.replace("--", "-%2D")
+    return text[:-1] + "%2D" if text.endswith("-") else text
+
+
+def _uncomment_text(text: str) -> str:
+    """The text :func:`_comment_text` wrote."""
+    return text.replace("%2D", "-").replace("%25", "%")
 
 
 # ---------------------------------------------------------------------------------------------- reader
@@ -334,7 +342,8 @@ def btcpp_metadata(xml_text: str) -> dict[str, str]:
     match = _ABOUT.search(xml_text, 0, 4096)
     if match is None:
         return {}
-    return {key: value.strip() for key, value in match.groupdict().items() if value and value.strip()}
+    found = match.groupdict().items()
+    return {key: _uncomment_text(value.strip()) for key, value in found if value and value.strip()}
 
 
 @dataclass(frozen=True, slots=True)

@@ -240,7 +240,7 @@ def read_problem(text: str, domain: Domain, source: str = "<problem>", deadline:
             key, value = _read_numeric_fact(reader, fact, scope)
             numeric[key] = value
             continue
-        if fact.head() in ("and", "or", "not", "forall", "when"):
+        if reader.keyword(fact, scope) in ("and", "or", "not", "forall", "when"):  # a predicate may be named so
             raise reader.fail(f"(:init ...) holds atoms only, found ({fact.head()} ...)", fact)
         atom = reader.atom(fact, scope)
         if any(is_variable(t) for t in atom.terms):
