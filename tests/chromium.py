@@ -3,7 +3,7 @@
 Chromium started with ``--remote-debugging-pipe`` reads protocol commands (JSON, each ended by a NUL
 byte) from its file descriptor 3 and writes replies and events to its descriptor 4; there is no
 listening socket at all. Name resolution is switched off (``--host-resolver-rules``), so a page can
-reach nothing but 127.0.0.1. Used by tests/test_view.py (and to measure ``hbtp view`` pages:
+reach nothing but 127.0.0.1. Used by tests/bt/test_view.py (and to measure ``hbtp view`` pages:
 ``python tests/chromium.py PAGE.html [--steps 10] [--repeat 5] [--screenshot OUT.png]``).
 """
 

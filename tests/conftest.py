@@ -10,13 +10,13 @@ from typing import Any
 import pytest
 
 from hbtp.domains import Scenario, load_scenario
+from helpers import SCENARIOS
 
 # The tests build every scenario from its PDDL; they never read or write the user's scenario cache
-# (tests/test_scenario_cache.py checks the cache on its own, in a temporary folder).
+# (tests/domains/test_scenario_cache.py checks the cache on its own, in a temporary folder).
 os.environ["HBTP_NO_CACHE"] = "1"
 
 DATA_DIR = Path(__file__).parent / "data"
-SCENARIOS = ("robowaiter", "virtualhome", "robothow-small", "robothow")
 
 
 @pytest.fixture(scope="session")

@@ -29,6 +29,8 @@ from hbtp.logic.task import Goal, GroundTask
 from hbtp.planning import Status, plan
 from hbtp.planning.result import PlanResult
 
+#: The four shipped scenarios (the ``scenario`` fixture runs a test on each).
+SCENARIOS = ("robowaiter", "virtualhome", "robothow-small", "robothow")
 LOCATIONS = ("l0", "l1", "l2")
 
 
