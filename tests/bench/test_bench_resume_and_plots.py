@@ -17,6 +17,7 @@ from hbtp.bench.suite import SuiteConfig, run_suite
 from hbtp.bench.table1 import Table1Config, run_table1
 from hbtp.bench.table2 import BackendRecipe
 from hbtp.errors import InputError
+from hbtp.llm.backends.registry import LlmSpec
 
 
 class FakeClock:
@@ -40,7 +41,7 @@ def _fake_part(clock: FakeClock, seconds: float, interrupt: bool = False) -> sui
 
 
 def _run(out: Path, parts: tuple[str, ...] = ("table1", "fig4")) -> dict[str, Any]:
-    return run_suite(SuiteConfig(parts=parts, llm="oracle"), BackendRecipe("oracle"), out, Execution("inline"))
+    return run_suite(SuiteConfig(parts=parts), BackendRecipe(LlmSpec.parse("oracle")), out, Execution("inline"))
 
 
 def test_a_resumed_run_adds_its_time_to_each_part_s_earlier_time(

@@ -25,6 +25,7 @@ from hbtp.bench.table1 import Table1Config, Table1Row
 from hbtp.bench.table2 import BackendRecipe, Table2Config, Table2Row
 from hbtp.datasets import load_dataset
 from hbtp.errors import InputError
+from hbtp.llm.backends.registry import LlmSpec
 from hbtp.planning.planners import Space
 
 #: Lines of results files (as JSON objects) written before the rows were typed: a finished run's,
@@ -613,7 +614,9 @@ def test_a_killed_run_writes_the_line_it_always_wrote(monkeypatch: pytest.Monkey
     bte = summary["planners"]["bte"]
     assert (bte["tasks"], bte["solved"], bte["timeouts"], bte["killed"], bte["mean_time_s"]) == (1, 0, 1, 1, 1.5)
     assert bte["mean_explored"] is None
-    table2.run_table2(Table2Config("robowaiter", "oracle", limit=1), BackendRecipe("oracle"), tmp_path / "t2", INLINE)
+    table2.run_table2(
+        Table2Config("robowaiter", "oracle", limit=1), BackendRecipe(LlmSpec.parse("oracle")), tmp_path / "t2", INLINE
+    )
     assert _line(_first_line(tmp_path / "t2" / "results.jsonl")) == _line(STORED[Table2Row][-1])
     config3 = Fig3Config(scales=(1.0,), planners=("obtea",), space=Space.PRUNED, limit=1)
     fig3.run_fig3(config3, tmp_path / "fig3", INLINE)

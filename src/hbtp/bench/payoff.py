@@ -54,7 +54,7 @@ from hbtp.domains.scale import clone_objects
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError
 from hbtp.llm.backend import Backend
-from hbtp.llm.backends.registry import BackendOptions
+from hbtp.llm.backends.registry import BackendOptions, LlmSpec
 from hbtp.llm.pool import example_pool
 from hbtp.logic.task import Goal, GroundTask
 from hbtp.memory import resident_mb
@@ -67,8 +67,6 @@ SIZE_DATASET = "table1_robothow_100"
 #: The Table II sets in order of difficulty (mean |p*| 2.46, 4.54, 6.50, 8.70).
 SETS = ("robowaiter", "robothow-small", "virtualhome", "robothow")
 LLM_FREE = ("obtea+lm", "hbtp-s+lm")
-#: Backends whose answers come from a planner, not a model: their time is not model time.
-ORACLES = ("oracle", "noisy-oracle")
 #: The prefix of a configuration that prunes the world before grounding it.
 PRUNED = "hbtp-pruned:"
 
@@ -295,7 +293,7 @@ def _guide(
     planned = Planned(
         loop.result,
         planning_s=wall - loop.llm_seconds,
-        model_s=0.0 if run.recipe.llm in ORACLES else loop.llm_seconds,
+        model_s=0.0 if run.recipe.answers_by_planning else loop.llm_seconds,
         backend_s=loop.llm_seconds,
         backend_setup_s=setup,
         outcome=loop.outcome.label,
@@ -311,7 +309,7 @@ def _run_pruned(run: PayoffRun) -> tuple[Planned, Loaded]:
     assert run.recipe is not None
     # An oracle answers from an optimal plan in the whole world (its time is not counted); a model
     # needs no world at all.
-    oracle = run.recipe.llm in ORACLES
+    oracle = run.recipe.answers_by_planning
     if not oracle:  # the grounded world of the other configurations would only take memory here
         _world.cache_clear()
     backend_world = _world(run.world.scenario, run.world.scale)[0] if oracle else world.part(frozenset(), frozenset())
@@ -433,7 +431,7 @@ def run_payoff(
         fallback_time_limit=config.time_limit,
         prompt=replace(config.loop.prompt, exclude_same_goal=True),
     )
-    recipes = {b: BackendRecipe(b, options) for b in config.backends}
+    recipes = {b: BackendRecipe(LlmSpec.parse(b), options) for b in config.backends}
     work = [
         Work(
             (world.axis, world.cell, record.id, name),

@@ -60,7 +60,6 @@ clock: Callable[[], float] = time.perf_counter
 class SuiteConfig:
     quick: bool = False
     parts: tuple[str, ...] = PARTS
-    llm: str = "local"
     runs: int = 1
 
     def __post_init__(self) -> None:
@@ -123,7 +122,7 @@ def _table2(config: SuiteConfig, recipe: BackendRecipe, out: Path, execution: Ex
     for name in SCENARIOS:
         table2 = Table2Config(
             scenario=name,
-            backend=recipe.llm or "recorded",
+            backend=str(recipe.llm) if recipe.llm else "recorded",
             runs=config.runs,
             limit=3 if config.quick else None,
             loop=loop,

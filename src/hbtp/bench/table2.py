@@ -27,7 +27,7 @@ from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError
 from hbtp.llm.backend import Backend
 from hbtp.llm.backends.first_reply import FirstReplyBackend
-from hbtp.llm.backends.registry import BackendOptions, make_backend
+from hbtp.llm.backends.registry import BackendOptions, LlmSpec, make_backend
 from hbtp.llm.parse import hints_from_record
 from hbtp.llm.pool import example_pool
 from hbtp.logic.tables import TaskTable
@@ -161,13 +161,20 @@ class BackendRecipe:
     """How a worker builds the LLM backend of a run: ``llm`` (a :data:`BACKENDS` name) with
     ``options`` (its seed is the run number), optionally behind recorded first-round replies."""
 
-    llm: str | None
+    llm: LlmSpec | None
     options: BackendOptions = field(default_factory=BackendOptions)
     first_replies: tuple[Record, ...] | None = None
 
     def __post_init__(self) -> None:
+        if isinstance(self.llm, str):  # a name given as text by an untyped caller: read here
+            object.__setattr__(self, "llm", LlmSpec.parse(self.llm))
         if self.llm is None and self.first_replies is None:
             raise InputError("give an LLM backend, recorded first replies, or both")
+
+    @property
+    def answers_by_planning(self) -> bool:
+        """An oracle: its answers come from plans, so its time is not a model's."""
+        return self.llm is not None and not self.llm.kind.is_model
 
     def make(self, scenario: Scenario, run: int) -> Backend:
         inner = make_backend(self.llm, scenario, replace(self.options, seed=run)) if self.llm else None

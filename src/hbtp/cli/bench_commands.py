@@ -30,7 +30,7 @@ from hbtp.cli.options import (
 )
 from hbtp.datasets import read_dataset_file
 from hbtp.domains import scenario_names
-from hbtp.llm.backends.registry import BackendOptions, make_goal_backend
+from hbtp.llm.backends.registry import BackendKind, BackendOptions, LlmSpec, make_goal_backend
 from hbtp.llm.prompt import PromptOptions, Retrieval
 from hbtp.pipeline import LoopOptions
 from hbtp.planning import PLANNERS
@@ -180,7 +180,12 @@ table2_loop_options = option_group(
 
 @bench.command("table2")
 @click.option("-s", "--scenario", "scenarios", multiple=True, help="Scenario(s); default all four.")
-@click.option("--llm", "llm_spec", help="Backend (see hbtp plan --llm); default oracle, or none with --hints-from.")
+@click.option(
+    "--llm",
+    "llm_spec",
+    callback=lambda _context, _parameter, value: None if value is None else LlmSpec.parse(value),
+    help="Backend (see hbtp plan --llm); default oracle, or none with --hints-from.",
+)
 @click.option(
     "--hints-from",
     type=click.Path(dir_okay=False),
@@ -201,7 +206,7 @@ table2_loop_options = option_group(
 @execution_options
 def table2(
     scenarios: tuple[str, ...],
-    llm_spec: str | None,
+    llm_spec: LlmSpec | None,
     hints_from: str | None,
     backend: BackendOptions,
     loop: LoopOptions,
@@ -215,7 +220,7 @@ def table2(
     names = scenarios or scenario_names()
     records = read_dataset_file(hints_from) if hints_from else None
     if records is None and llm_spec is None:
-        llm_spec = "oracle"
+        llm_spec = LlmSpec(BackendKind.ORACLE)
     label = (
         f"hints-from:{Path(hints_from).name}" + (f"+{llm_spec}" if llm_spec else "") if hints_from else str(llm_spec)
     )
@@ -333,7 +338,14 @@ def fig3(
 @bench.command("all")
 @click.option("--quick", is_flag=True, help="A few tasks per cell and shorter limits (a few minutes).")
 @click.option("--only", "parts", default=",".join(PARTS), show_default=True, help="Comma-separated parts.")
-@click.option("--llm", "llm_spec", default="local", show_default=True, help="Table II backend (see hbtp plan --llm).")
+@click.option(
+    "--llm",
+    "llm_spec",
+    default="local",
+    show_default=True,
+    callback=lambda _context, _parameter, value: None if value is None else LlmSpec.parse(value),
+    help="Table II backend (see hbtp plan --llm).",
+)
 @backend_options
 @click.option("--runs", type=click.IntRange(1, 100), default=1, show_default=True, help="Table II runs (seeds).")
 @out_dir_option
@@ -341,14 +353,14 @@ def fig3(
 def bench_all(
     quick: bool,
     parts: str,
-    llm_spec: str,
+    llm_spec: LlmSpec,
     backend: BackendOptions,
     runs: int,
     out_dir: str,
     execution: Execution,
 ) -> int:
     """Every table and figure of the paper: DIR/report.md, DIR/summary.json, and one folder per part."""
-    config = SuiteConfig(quick=quick, parts=comma_choices(parts, PARTS, "--only", "part"), llm=llm_spec, runs=runs)
+    config = SuiteConfig(quick=quick, parts=comma_choices(parts, PARTS, "--only", "part"), runs=runs)
     run_suite(config, BackendRecipe(llm_spec, backend), Path(out_dir), execution)
     click.echo(f"wrote {Path(out_dir) / 'report.md'} and {Path(out_dir) / 'summary.json'}")
     return 0
@@ -503,7 +515,14 @@ def pddl(
 
 @bench.command("instructions")
 @click.option("-s", "--scenario", "scenarios", multiple=True, help="Scenario(s); default all four.")
-@click.option("--llm", "llm_spec", default="local", show_default=True, help="local, openai, oracle or replay:FILE.")
+@click.option(
+    "--llm",
+    "llm_spec",
+    default="local",
+    show_default=True,
+    callback=lambda _context, _parameter, value: None if value is None else LlmSpec.parse(value),
+    help="local, openai, oracle or replay:FILE.",
+)
 @click.option("--limit", type=click.IntRange(min=1), help="Only the first N records per scenario.")
 @click.option(
     "--phrasings", type=click.IntRange(1, 10), default=2, show_default=True, help="Phrasings asked per record."
@@ -513,7 +532,7 @@ def pddl(
 @out_dir_option
 def instructions(
     scenarios: tuple[str, ...],
-    llm_spec: str,
+    llm_spec: LlmSpec,
     limit: int | None,
     phrasings: int,
     feedback_rounds: int,
@@ -522,7 +541,7 @@ def instructions(
 ) -> int:
     """Instructions to goals: accuracy, rounds, LLM time and end-to-end success on the instruction dataset."""
     chosen = tuple(scenarios) or scenario_names()
-    bench_config = InstructionsBench(chosen, llm_spec, limit, phrasings, feedback_rounds)
+    bench_config = InstructionsBench(chosen, str(llm_spec), limit, phrasings, feedback_rounds)
     summary = run_instructions(
         bench_config, lambda scenario: make_goal_backend(llm_spec, scenario, backend), Path(out_dir)
     )
