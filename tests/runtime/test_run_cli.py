@@ -224,3 +224,29 @@ def test_run_with_py_trees_and_a_trace(tmp_path: Path, planned: Node, robothow_s
     watched = CliRunner().invoke(run_command, [file, "--engine", "pytrees", "--btlog", str(tmp_path / "x.btlog")])
     assert watched.exit_code == 2
     assert "give --engine btcpp" in watched.output
+
+
+def test_the_runs_of_one_command_share_one_kept_search(
+    tmp_path: Path, path_tree: Node, robothow_small: Scenario, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``hbtp run --replan N --runs R``: a re-plan continues the search the runs before it kept (as
+    ``replanning_runs`` does), so the command makes one kept search, not one per run."""
+    from hbtp.cli import run_command as module
+    from hbtp.replanning import KeptSearch
+
+    made: list[KeptSearch] = []
+
+    class Counted(KeptSearch):
+        def __init__(self) -> None:
+            super().__init__()
+            made.append(self)
+
+    monkeypatch.setattr(module, "KeptSearch", Counted)
+    file = _write(tmp_path / "tree.json", path_tree, robothow_small)
+    result = CliRunner().invoke(run_command, [file, "--replan", "3", "--perturb", "0.5", "--runs", "6", "--json"])
+    assert result.exit_code == 0, result.output
+    record = json.loads(result.output)
+    assert record["successes"] == 6
+    assert record["replans"] >= 2
+    assert len(made) == 1
+    assert made[0].search is not None  # the last re-plan's search, kept for the next one

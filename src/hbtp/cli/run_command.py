@@ -43,7 +43,14 @@ from hbtp.files import write_all_atomically
 from hbtp.logic.execution import Disturbance
 from hbtp.logic.task import GoalIds, GroundTask
 from hbtp.pacing import MAX_TICK_HZ, TickRate
-from hbtp.replanning import ReplanningRun, ReplanOptions, replanning_summary, replanning_trace_jsonl, run_replanning
+from hbtp.replanning import (
+    KeptSearch,
+    ReplanningRun,
+    ReplanOptions,
+    replanning_summary,
+    replanning_trace_jsonl,
+    run_replanning,
+)
 
 log = logging.getLogger(__name__)
 
@@ -340,7 +347,8 @@ def _run_replanning(read: TreeInput, tree_file: str, request: RunRequest) -> int
         )
     finally:
         undisturbed.halt()
-    options = ReplanOptions(max_replans=replan, engine=engine)
+    # The runs share one kept search (as replanning_runs does): a re-plan continues the runs' before it.
+    options = ReplanOptions(max_replans=replan, engine=engine, kept=KeptSearch())
     results = [
         run_replanning(
             read.scenario, goal, read.tree, max_ticks=max_ticks, disturbance=disturbance, options=options,
