@@ -48,6 +48,7 @@ from hbtp.bt.jsonio import node_to_dict
 from hbtp.bt.live import LiveOptions, paced
 from hbtp.bt.nodes import Node
 from hbtp.bt.simulate import DEFAULT_MAX_TICKS, simulate, trace_to_jsonl
+from hbtp.domains.mutex import Mutexes
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError
 from hbtp.logic.execution import Disturbance, NodeStatus, Run, Trace, execute
@@ -58,6 +59,7 @@ from hbtp.planning.planners import confirmed_search, planner_config
 from hbtp.planning.repair import RepairableSearch, repairable
 from hbtp.planning.result import PlanResult, Status
 from hbtp.planning.search_state import SearchConfig
+from hbtp.planning.symmetry import find_symmetry
 
 log = logging.getLogger(__name__)
 
@@ -79,6 +81,9 @@ __all__ = [
 
 #: How :attr:`Replanner.gave_up` starts when no tree reaches the goal from the state.
 UNSOLVABLE_FROM_STATE = "no tree reaches the goal from the observed state"
+#: Conditions a re-plan's repair explores before a state with interchangeable objects is searched
+#: afresh with symmetry pruning (see :func:`_repaired`).
+REPAIR_EXPANSIONS = 5_000
 
 #: Called when a re-plan swaps a tree in, with the new tree's policy (the old tree already halted).
 SwapHook = Callable[[TreePolicy], object]
@@ -259,11 +264,7 @@ class Replanner:
         limits = Limits(time_s=seconds)
         if not self.options.repair or self.excluded or mutexes is None or not repairable(config):
             return confirmed_search(world, goal, actions, config, mutexes=mutexes, limits=limits)
-        search = self.kept.take(goal, config)
-        if search is None:
-            search, result = RepairableSearch.start(world, goal, actions, config, mutexes=mutexes, limits=limits)
-        else:
-            result = search.repair(world, goal, limits)
+        search, result = _repaired(self.kept.take(goal, config), world, goal, actions, config, mutexes, seconds)
         self.kept.search = search
         if search is not None and search.spent:
             log.info("the kept search holds %d conditions: dropped, the next re-plan starts anew", len(search.nodes))
@@ -274,6 +275,37 @@ class Replanner:
         self.gave_up = reason  # reported by the caller (the run's result, the command's output)
         log.info("%s", reason)
         return False
+
+
+def _repaired(
+    search: RepairableSearch | None,
+    world: GroundTask,
+    goal: Goal,
+    actions: Sequence[GroundAction],
+    config: SearchConfig,
+    mutexes: Mutexes,
+    seconds: float,
+) -> tuple[RepairableSearch | None, PlanResult]:
+    """The kept ``search`` continued from ``world``'s s0 (started when ``None``), optimal; the search
+    to keep. A repair that explores :data:`REPAIR_EXPANSIONS` more conditions without an answer gives
+    way, when the state has interchangeable objects, to a fresh search that prunes by them (optimal
+    too, and far smaller there: a robot holding one thing it could put on any of a hundred surfaces);
+    otherwise the repair goes on. Both within ``seconds``; the expansion bound keeps it deterministic."""
+    started = time.perf_counter()
+    base = 0 if search is None else len(search.expansions)
+    capped = Limits(time_s=seconds, max_expansions=base + REPAIR_EXPANSIONS)
+    if search is None:
+        search, result = RepairableSearch.start(world, goal, actions, config, mutexes=mutexes, limits=capped)
+    else:
+        result = search.repair(world, goal, capped)
+    if result.status is not Status.NODE_LIMIT or search is None:
+        return search, result
+    left = max(seconds - (time.perf_counter() - started), 1e-9)
+    if find_symmetry(world, goal.disjuncts, actions) is None:
+        return search, search.repair(world, goal, Limits(time_s=left))
+    log.info("the repair explored %d conditions: a fresh search with symmetry pruning instead", REPAIR_EXPANSIONS)
+    symmetric = dataclasses.replace(config, symmetry=True)
+    return search, confirmed_search(world, goal, actions, symmetric, mutexes=mutexes, limits=Limits(time_s=left))
 
 
 @dataclass(frozen=True)

@@ -10,16 +10,20 @@ mutexes, and on disturbed states of the shipped scenarios.
 from __future__ import annotations
 
 import random
+from pathlib import Path
+from typing import Any
 
 import pytest
 
+from hbtp import replanning
 from hbtp.bt import tree_of
 from hbtp.bt.disturb import seeded_disturbances
-from hbtp.domains import Scenario
+from hbtp.domains import DomainBuilder, Scenario
 from hbtp.domains.mutex import infer_mutexes
 from hbtp.logic.task import GroundTask
 from hbtp.planning import PlanResult, Status, plan, planner_config, search
 from hbtp.planning.repair import RepairableSearch, repairable
+from hbtp.planning.search_state import SearchConfig
 from hbtp.replanning import KeptSearch, Replanner, ReplanOptions, replanning_runs
 from helpers import brute_force, random_task, run_tree
 
@@ -135,9 +139,25 @@ def test_replanning_runs_by_repair_reach_the_goal(robothow_small: Scenario) -> N
         assert all(replan.status in ("solved", "unsolvable") for replan in run.replans)
 
 
-def test_a_replanner_repairs_at_the_cost_of_a_fresh_search(robothow_small: Scenario) -> None:
+@pytest.mark.parametrize("bound", [None, 2], ids=["repair", "bounded-repair"])
+def test_a_replanner_repairs_at_the_cost_of_a_fresh_search(
+    robothow_small: Scenario, bound: int | None, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """A Replanner re-planning by repair from a series of disturbed states: each re-plan costs what
-    a fresh search from that state costs, and its tree reaches the goal from there at that cost."""
+    a fresh search from that state costs, and its tree reaches the goal from there at that cost. With
+    the repair bounded to 2 conditions (these states have no interchangeable objects) the repair goes
+    on past the bound: the same costs."""
+    symmetric: list[bool] = []
+    if bound is not None:
+        monkeypatch.setattr(replanning, "REPAIR_EXPANSIONS", bound)
+        find = replanning.find_symmetry
+
+        def recorded(*args: Any) -> Any:
+            found = find(*args)
+            symmetric.append(found is not None)
+            return found
+
+        monkeypatch.setattr(replanning, "find_symmetry", recorded)
     task, mutexes = robothow_small.task, robothow_small.mutexes.proved_only()
     goal = task.resolve_goal("IsIn_apple_fridge & IsClose_fridge")
     policy = Replanner(robothow_small, goal, None, ReplanOptions(max_replans=100))
@@ -163,6 +183,9 @@ def test_a_replanner_repairs_at_the_cost_of_a_fresh_search(robothow_small: Scena
         policy.gave_up = None
     assert compared >= 5
     assert policy.kept.search is not None
+    if bound is not None:  # its states have no interchangeable objects: every bounded repair went on
+        assert symmetric
+        assert True not in symmetric
 
 
 def test_a_kept_search_is_shared_and_dropped_for_another_goal(robowaiter: Scenario) -> None:
@@ -181,3 +204,48 @@ def test_a_kept_search_is_shared_and_dropped_for_another_goal(robowaiter: Scenar
     assert kept.search is not first
     assert kept.search is not None
     assert kept.search.goal.disjuncts == other.disjuncts
+
+
+def _shelves_scenario() -> Scenario:
+    """A robot that must have its hand empty to wipe the table, and four empty shelves it may put
+    what it holds on: interchangeable objects in every state where it holds the cup."""
+    builder = DomainBuilder("shelves").constants(["self"])
+    for shelf in ("s1", "s2", "s3", "s4"):
+        builder.action(f"Put(cup,{shelf})", pre=["Holding(cup)"], add=["HandEmpty(self)", f"On(cup,{shelf})"],
+                       delete=["Holding(cup)"], cost=2)  # fmt: skip
+        builder.action(f"Take(cup,{shelf})", pre=["HandEmpty(self)", f"On(cup,{shelf})"], add=["Holding(cup)"],
+                       delete=["HandEmpty(self)", f"On(cup,{shelf})"], cost=2)  # fmt: skip
+    builder.action("Wipe(table)", pre=["HandEmpty(self)"], add=["Clean(table)"], cost=3)
+    task = builder.initial(["HandEmpty(self)", "On(cup,s1)"]).build()
+    return Scenario(task.name, task.name, "", task, infer_mutexes(task), Path("-"), Path("-"))
+
+
+def test_a_long_repair_gives_way_to_a_search_with_symmetry_pruning(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A repair bounded to one condition stops; the state (the cup in hand, four empty shelves) has
+    interchangeable objects, so a fresh search prunes by them: the same optimal cost, a tree that
+    reaches the goal from the state."""
+    monkeypatch.setattr(replanning, "REPAIR_EXPANSIONS", 1)
+    searched = replanning.confirmed_search
+    configs: list[SearchConfig] = []
+
+    def recorded(*args: Any, **kwargs: Any) -> PlanResult:
+        configs.append(args[3])
+        return searched(*args, **kwargs)
+
+    monkeypatch.setattr(replanning, "confirmed_search", recorded)
+    scenario = _shelves_scenario()
+    task = scenario.task
+    goal = task.resolve_goal("Clean(table)")
+    holding = frozenset(task.atom_id(name) for name in ("Holding(cup)",))
+    assert replanning.find_symmetry(task.from_state(holding), goal.disjuncts, task.actions) is not None
+    policy = Replanner(scenario, goal, None, ReplanOptions())
+    assert policy.replan(task.initial_state, "first")  # starts the kept search
+    assert policy.replan(holding, "the cup is in hand again")
+    replan = policy.replans[-1]
+    assert (replan.status, replan.cost) == ("solved", 5)  # put the cup on a shelf, wipe
+    assert replan.tree is not None
+    run = run_tree(replan.tree, task.from_state(holding), holding, 100)
+    assert run.reached
+    assert run.cost == 5
+    assert configs
+    assert configs[-1].symmetry  # the fresh search pruned by the interchangeable shelves
