@@ -63,10 +63,15 @@ __all__ = [
 
 
 def planner_config(
-    name: str, *, heuristic: HeuristicName = DEFAULT_HEURISTIC, alpha: Number = DEFAULT_ALPHA, symmetry: bool = False
+    name: str,
+    *,
+    heuristic: HeuristicName | str = DEFAULT_HEURISTIC,
+    alpha: Number = DEFAULT_ALPHA,
+    symmetry: bool = False,
 ) -> SearchConfig:
     """The :class:`SearchConfig` of a registered planner, with the given options.
 
+    ``heuristic`` is a :class:`HeuristicName` or its name (``"lm"``; another is an :class:`InputError`).
     ``alpha`` (HBTP-O's divisor, any finite number from 1 to :data:`MAX_ALPHA`) is checked for every
     planner, used by HBTP-O only. ``symmetry``: see :attr:`SearchConfig.symmetry`.
     """
@@ -74,7 +79,7 @@ def planner_config(
         base = PLANNERS[name]
     except KeyError:
         raise InputError(f"unknown planner {name!r}; choose one of: {', '.join(PLANNERS)}") from None
-    heuristic = heuristic_named(heuristic)  # a name given as text by an untyped caller: checked here
+    heuristic = heuristic_named(heuristic)  # a name given as text ("lm") is checked and becomes the value
     if heuristic is HeuristicName.SEQ:
         require_solver()
     costs = base.costs.with_alpha(check_alpha(alpha))
@@ -89,7 +94,7 @@ def plan(
     hints: Hints | ResolvedHints | None = None,
     space: Space = Space.FULL,
     mutexes: Mutexes | None = None,
-    heuristic: HeuristicName | None = None,
+    heuristic: HeuristicName | str | None = None,
     alpha: Number = DEFAULT_ALPHA,
     limits: Limits | None = None,
     extra_expansions: int = 0,
