@@ -16,6 +16,7 @@ import json
 import logging
 import math
 import random
+import signal
 import socket
 import subprocess
 import sys
@@ -438,6 +439,18 @@ def test_runtime_halts_the_running_action_once_when_a_replan_swaps_the_tree(engi
     assert report.halted == ["Walk(fridge)"]
 
 
+@pytest.fixture
+def sigint_raises() -> Iterator[None]:
+    """SIGINT raising KeyboardInterrupt, as in a terminal: a process started in the background
+    (``cmd &`` in a script) inherits it ignored, and interrupt_main() then does nothing."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+@pytest.mark.usefixtures("sigint_raises")
 def test_runtime_halts_the_running_action_once_at_the_end_and_on_ctrl_c(engine: Engine) -> None:
     task = kitchen_builder().build()
     options = ReplanOptions(engine=engine)
