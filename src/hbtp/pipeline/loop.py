@@ -30,7 +30,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from hbtp.datasets.records import Record
-from hbtp.deadline import Deadline, TimeLimitReached, expired, seconds_left, within
+from hbtp.deadline import Deadline, TimeLimitReached, expired, within
 from hbtp.domains.pruned import GroundedWorld, World
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import BackendError
@@ -209,12 +209,9 @@ class _Loop:
         request = build_request(self.names, str(goal), pool, self.prompt, scenario=world.name)
         self.request = replace(request, resolved=goal)
 
-    def left(self) -> float:
-        return seconds_left(self.deadline)
-
     def run(self) -> LoopResult:
         for number in range(self.options.feedback_rounds + 1):
-            if self.left() <= 0:
+            if expired(self.deadline):
                 log.info("the time limit ran out before round %d", number)
                 break
             result = self.round(number)
@@ -240,8 +237,7 @@ class _Loop:
             self.rounds.append(RoundRecord.of(number, exchange, tuple(self.asker.blacklist)))
             return None
         self.hints = self.hints.grown_by(exchange.hints, self.names)
-        left = self.left()
-        if left <= 0:
+        if expired(self.deadline):
             log.info("the time limit ran out before round %d could plan", number)
             return None
         started = time.perf_counter()
@@ -292,10 +288,9 @@ class _Loop:
 
     def fallback(self) -> LoopResult:
         """The full action space with the LLM-free heuristic, in the time that is left."""
-        left = self.left()
         if not self.options.fallback:
             return self.result(Outcome.FAILED, self.last or self.no_round())
-        if left <= 0:
+        if expired(self.deadline):
             message = "the time limit ran out before the fallback"
             if self.last is not None:
                 return self.result(Outcome.FAILED, replace(self.last, status=Status.TIMEOUT, message=message))

@@ -10,6 +10,7 @@ and in earlier searches of the same command (``--hints oracle``) is charged to t
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from dataclasses import dataclass
 
@@ -55,14 +56,14 @@ class LimitWatch:
         shared = limits.deadline
         #: The earlier of the run's own time limit and the command's deadline.
         self.deadline = shared if own is None or (shared is not None and shared.at < own.at) else own
-        self.seconds = None if self.deadline is None else self.deadline.seconds
+        self._at = math.inf if self.deadline is None else self.deadline.at  # checked at every expansion
 
     def as_deadline(self) -> Deadline | None:
         """The time limit of this run as a :class:`Deadline` (for the heuristic set-up)."""
         return self.deadline
 
     def timed_out(self) -> bool:
-        return self.deadline is not None and time.perf_counter() >= self.deadline.at
+        return time.perf_counter() >= self._at
 
     def check(self, expansions: int, generated: int) -> Status | None:
         if self.timed_out():
@@ -75,7 +76,7 @@ class LimitWatch:
 
     def reason(self, status: Status) -> str:
         if status is Status.TIMEOUT:
-            return f"time limit of {self.seconds or 0:g} s reached"
+            return f"time limit of {self.deadline.seconds if self.deadline else 0:g} s reached"
         if status is Status.NODE_LIMIT:
             return f"expansion limit of {self.limits.max_expansions} reached"
         if status is Status.MEMORY_LIMIT:

@@ -459,7 +459,7 @@ class LocalBackend:
                 "the local model needs a completion-style prompt, but request.completion_prompt is empty"
             )
         deadline = request.deadline
-        if deadline is not None and deadline.expired():
+        if expired(deadline):
             raise BackendTimeLimit("no time was left to ask the local model")
         loaded_here = not self.loaded
         self.load()
