@@ -16,7 +16,7 @@ from hbtp.llm import demonstrations
 from hbtp.llm.demonstrations import PoolSettings, generated_pool, pool_key
 from hbtp.llm.pool import example_pool
 from hbtp.logic.execution import apply_actions
-from hbtp.planning.generate import LEVELS, Sampling, generate_records, sample_goals
+from hbtp.planning.generate import LEVELS, Draw, Sampling, generate_records, relaxed_reachable, sample_goals
 
 HOUSE = Path(__file__).parent.parent / "data" / "household"
 DOMAIN, PROBLEM, TINY = HOUSE / "domain.pddl", HOUSE / "problem.pddl", HOUSE / "tiny.problem.pddl"
@@ -27,9 +27,10 @@ def house() -> Scenario:
     return load_pddl_scenario(DOMAIN, PROBLEM)
 
 
+@pytest.mark.parametrize("draw", list(Draw))
 @pytest.mark.parametrize("level", ["easy", "medium", "hard", "any"])
-def test_generated_records_validate_fit_their_level_and_are_optimal(house: Scenario, level: str) -> None:
-    records = generate_records(house.task, level, 6, Sampling(seed=2), house.mutexes)
+def test_generated_records_validate_fit_their_level_and_are_optimal(house: Scenario, level: str, draw: Draw) -> None:
+    records = generate_records(house.task, level, 6, Sampling(seed=2, draw=draw), house.mutexes)
     assert len(records) == 6
     assert validate_records(records, house.task).valid
     window = LEVELS[level]
@@ -43,14 +44,15 @@ def test_generated_records_validate_fit_their_level_and_are_optimal(house: Scena
         assert sum(a.cost for a in actions) == record.cost == brute_force(house.task, goal.ids)[0]
 
 
+@pytest.mark.parametrize("draw", list(Draw))
 @pytest.mark.parametrize("seed", range(12))
-def test_sampled_goals_on_random_tasks_have_optimal_plans(seed: int) -> None:
+def test_sampled_goals_on_random_tasks_have_optimal_plans(seed: int, draw: Draw) -> None:
     task, _ = random_task(seed)
     if not any(a.pre <= task.initial_state for a in task.actions):
         with pytest.raises(InputError, match="no action applies"):
             sample_goals(task, LEVELS["any"], 4)
         return
-    goals = sample_goals(task, LEVELS["any"], 4, Sampling(seed=seed, attempts=10))
+    goals = sample_goals(task, LEVELS["any"], 4, Sampling(seed=seed, attempts=10, draw=draw))
     for labelled in goals:
         assert not labelled.goal.ids <= task.initial_state
         actions = [task.actions[i] for i in labelled.plan]
@@ -58,6 +60,40 @@ def test_sampled_goals_on_random_tasks_have_optimal_plans(seed: int) -> None:
         assert labelled.goal.ids <= state
         assert applied == len(actions)
         assert sum(a.cost for a in actions) == labelled.cost == brute_force(task, labelled.goal.ids)[0]
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_relaxed_reachable_atoms_hold_every_atom_a_plan_reaches(seed: int) -> None:
+    """Every state reached by applying actions from s0 lies within the relaxed reachable atoms, and
+    every one of those atoms is added by an action whose preconditions are among them (or holds in s0)."""
+    task, _ = random_task(seed)
+    reached = relaxed_reachable(task)
+    assert task.initial_state <= reached
+    frontier, seen = [task.initial_state], {task.initial_state}
+    while frontier:
+        state = frontier.pop()
+        assert state <= reached
+        for action in task.actions:
+            if action.pre <= state and (after := action.progress(state)) not in seen:
+                seen.add(after)
+                frontier.append(after)
+    supported = set(task.initial_state) | {atom for a in task.actions if a.pre <= reached for atom in a.add}
+    assert reached == supported
+
+
+def test_reachable_goals_reach_further_than_walk_goals() -> None:
+    """On RobotHow-Small, goals of the wide level drawn from the reachable atoms have longer optimal
+    plans on average than those drawn from walks' ends (same seed and count: walks rarely reach the
+    level's long plans)."""
+    from hbtp.domains import load_scenario
+
+    world = load_scenario("robothow-small")
+    lengths = {}
+    for draw in Draw:
+        records = generate_records(world.task, "any", 12, Sampling(seed=3, draw=draw), world.mutexes)
+        assert len(records) == 12
+        lengths[draw] = sum(len(r.optimal_actions) for r in records) / len(records)
+    assert lengths[Draw.REACHABLE] > lengths[Draw.WALK]
 
 
 def _generate(tmp_path: Path, name: str, *extra: str) -> bytes:

@@ -1,11 +1,17 @@
 """Sampled goals labelled by the optimal planner: generated datasets and demonstrations for any domain.
 
-A goal is sampled from a state reachable from s0, so it is always solvable: a random walk of
-forward progression (``(s - del) | add``) ends in a state s, and the goal is 1 to k literals of
-s ∖ s0 (what the walk made true). Both draws are stratified by predicate, so that a domain with
-many actions or atoms of one kind (RobotHow's 130 ``Walk`` actions, its ``IsNear`` atoms) does not
-drown the others: a walk step first draws an applicable action predicate, then one of its
-applicable actions; a goal literal first draws a predicate of the changed atoms, then an atom.
+Where a goal's literals come from is a :class:`Draw`:
+
+* ``WALK`` (datasets, demonstrations): from a state reachable from s0, so the goal is always
+  solvable: a random walk of forward progression (``(s - del) | add``) ends in a state s, and the
+  goal is 1 to k literals of s ∖ s0 (what the walk made true). A walk step first draws an
+  applicable action predicate, then one of its applicable actions, so that a domain with many
+  actions of one kind (RobotHow's 130 ``Walk`` actions) does not drown the others. Walks mostly
+  change what is near s0: their goals have short plans.
+* ``REACHABLE`` (training a model): from every atom the delete relaxation reaches that s0 lacks,
+  a predicate first, then one of its atoms; literals proved mutex are not drawn together, and a
+  goal the bounded search does not solve is skipped. These goals reach as far from s0 as the
+  domain does (an appliance to plug in and open, a tool to fetch), as people's goals do.
 Each goal is labelled with a cost-optimal plan p* (OBTEA with the landmark heuristic, pruning with
 proved mutexes only) and kept when |p*| and its number of literals fit the :class:`Level`.
 
@@ -20,6 +26,7 @@ generate``) use it.
 
 from __future__ import annotations
 
+import enum
 import logging
 import random
 from collections import Counter, defaultdict
@@ -81,21 +88,30 @@ LEVELS: dict[str, Level] = {
 }
 
 
+class Draw(enum.Enum):
+    """Where a sampled goal's literals come from (see the module docstring)."""
+
+    WALK = "walk"
+    REACHABLE = "reachable"
+
+
 @dataclass(frozen=True, slots=True)
 class Sampling:
     """The sampling parameters (all domain-independent).
 
     ``seed``: the random seed; ``max_expansions``: the labelling search's bound per goal (a goal
     whose optimum is not found within it is skipped); ``attempts``: candidate goals drawn per goal
-    asked for, before giving up with fewer.
+    asked for, before giving up with fewer; ``draw``: where the literals come from.
     """
 
     seed: int = 0
     max_expansions: int = 20_000
     attempts: int = 40
+    draw: Draw = Draw.WALK
 
     def key(self) -> str:
-        return f"seed={self.seed},max_expansions={self.max_expansions},attempts={self.attempts}"
+        drawn = "" if self.draw is Draw.WALK else f",draw={self.draw.value}"
+        return f"seed={self.seed},max_expansions={self.max_expansions},attempts={self.attempts}{drawn}"
 
 
 @dataclass(frozen=True, slots=True)
@@ -160,6 +176,48 @@ def _writable(atom: Atom) -> bool:
     return parse_atom(atom.underscored) == atom
 
 
+def relaxed_reachable(task: GroundTask) -> frozenset[int]:
+    """The atoms the delete relaxation reaches from s0 (a superset of those a plan can make true)."""
+    reached = set(task.initial_state)
+    waiting = [len(action.pre) for action in task.actions]
+    needed_by: list[list[int]] = [[] for _ in task.atoms]
+    for action in task.actions:
+        for atom in action.pre:
+            needed_by[atom].append(action.index)
+    queue = [a.index for a in task.actions if not a.pre] + [
+        i for atom in reached for i in needed_by[atom] if _lower(waiting, i)
+    ]
+    while queue:
+        for atom in task.actions[queue.pop()].add:
+            if atom not in reached:
+                reached.add(atom)
+                queue.extend(i for i in needed_by[atom] if _lower(waiting, i))
+    return frozenset(reached)
+
+
+def _lower(waiting: list[int], action: int) -> bool:
+    """One more precondition of ``action`` reached: whether it was the last one."""
+    waiting[action] -= 1
+    return waiting[action] == 0
+
+
+def _draw_by_predicate(
+    rng: random.Random, pool: Sequence[int], task: GroundTask, weights: Sequence[float], count: int
+) -> frozenset[int]:
+    """``count`` distinct atoms of ``pool``: each a predicate first (uniformly), then one of its
+    atoms by weight, so that a predicate with many atoms does not drown the others."""
+    by_predicate: dict[str, list[int]] = defaultdict(list)
+    for atom in pool:
+        by_predicate[task.atoms[atom].predicate].append(atom)
+    chosen: set[int] = set()
+    for _ in range(4 * count):
+        if len(chosen) == count:
+            break
+        atoms = by_predicate[rng.choice(sorted(by_predicate))]
+        chosen.add(atoms[rng.choices(range(len(atoms)), [weights[a] for a in atoms])[0]])
+    return frozenset(chosen)
+
+
 def _draw_literals(rng: random.Random, changed: Sequence[int], weights: Sequence[float], count: int) -> frozenset[int]:
     """``count`` distinct atoms of ``changed``, each drawn with its weight."""
     pool = list(changed)
@@ -196,12 +254,19 @@ def sample_goals(
     lengths: Counter[int] = Counter()
     quota = -(-count // level.width) if level.max_length is not None else count
     attempts = 0
+    reachable = sorted(relaxed_reachable(task) - task.initial_state) if sampling.draw is Draw.REACHABLE else []
+    reachable = [a for a in reachable if _writable(task.atoms[a])]
     while len(found) < count and attempts < sampling.attempts * count:
         attempts += 1
-        state = walker.walk(rng, rng.randint(1, level.walk_length))
-        changed = [a for a in sorted(state - task.initial_state) if _writable(task.atoms[a])]
-        literals = _draw_literals(rng, changed, walker.weights, rng.randint(*level.literals))
+        if sampling.draw is Draw.REACHABLE:
+            literals = _draw_by_predicate(rng, reachable, task, walker.weights, rng.randint(*level.literals))
+        else:
+            state = walker.walk(rng, rng.randint(1, level.walk_length))
+            changed = [a for a in sorted(state - task.initial_state) if _writable(task.atoms[a])]
+            literals = _draw_literals(rng, changed, walker.weights, rng.randint(*level.literals))
         if len(literals) < level.literals[0] or literals in seen:
+            continue
+        if proved is not None and proved.conflict(literals) is not None:
             continue
         seen.add(literals)
         labelled = _label(task, literals, proved, limits)
