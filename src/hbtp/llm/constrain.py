@@ -111,6 +111,22 @@ def constraint_of(
     return Constraint(root + rules, json.dumps(schema, sort_keys=True))
 
 
+def stepped_constraint(source: GroundTask | ActionNames, allowed: Iterable[str], bound: int) -> Constraint:
+    """The constraint of a taught reply that continues a plan (:mod:`hbtp.llm.checked`): its first
+    action one of ``allowed`` (those that apply where the plan stands), then any action, at most
+    ``bound`` in all."""
+    task = as_names(source)
+    rules, action_pattern = _NAME_RULES.of(task, lambda: _names(task))
+    rest = f' (", " action){{0,{bound - 1}}}' if bound > 1 else ""
+    root = (
+        f'root ::= " " first{rest} end\n'
+        f"first ::= {' | '.join(gbnf_literal(name) for name in sorted(allowed))}\n"
+        'end ::= ( "\\n" "\\n"? )?\n'
+    )
+    schema = _schema(task, action_pattern, Bounds(actions=max(1, bound)))
+    return Constraint(root + rules, json.dumps(schema, sort_keys=True))
+
+
 def gbnf_literal(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
 

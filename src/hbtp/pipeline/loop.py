@@ -34,13 +34,14 @@ from hbtp.deadline import Deadline, TimeLimitReached, expired, within
 from hbtp.domains.pruned import GroundedWorld, World
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import BackendError
-from hbtp.llm.backend import Backend, Request
+from hbtp.llm.backend import Backend, Reply, Request
+from hbtp.llm.checked import checked_answer
 from hbtp.llm.grammar import GrammarCheck, check_reply
 from hbtp.llm.parse import parse_reply
 from hbtp.llm.prompt import Feedback, PromptOptions, build_request, feedback_request, retry_request
 from hbtp.llm.redact import redact
 from hbtp.logic.names import ActionNames
-from hbtp.logic.task import Goal
+from hbtp.logic.task import Goal, GroundTask
 from hbtp.pipeline.results import REPEATED, Exchange, LoopResult, Outcome, RoundRecord, call_record
 from hbtp.planning.heuristic_names import DEFAULT_HEURISTIC, HeuristicName
 from hbtp.planning.hints import Hints, pruned_action_space, resolve_hints
@@ -105,17 +106,66 @@ class _Asker:
 
     A request is never sent twice at temperature 0: a backend of the same prompt style would see
     the same text and answer the same, so a retry whose prompt did not change is not sent, and a
-    round whose question was already answered is skipped (it cannot help)."""
+    round whose question was already answered is skipped (it cannot help).
 
-    def __init__(self, names: ActionNames, backend: Backend, retries: int, progress: Progress) -> None:
+    ``checking``: the whole world's task and the goal resolved in it, when the world is grounded:
+    a taught model's first answer is then made to run there (:mod:`hbtp.llm.checked`)."""
+
+    def __init__(
+        self,
+        names: ActionNames,
+        backend: Backend,
+        retries: int,
+        progress: Progress,
+        checking: tuple[GroundTask, Goal] | None = None,
+    ) -> None:
         self.names = names
         self.backend = backend
         self.retries = retries
         self.progress = progress
+        self.checking = checking
         self.blacklist: list[str] = []
         self.answered: set[str] = set()
 
     def ask(self, request: Request, deadline: Deadline | None) -> Exchange:
+        if self.checking is not None and request.taught and not expired(deadline) and not self.repeated(request):
+            task, goal = self.checking
+            if not goal.holds(task.initial_state):
+                return self.ask_checked(request, task, goal, deadline)
+        return self.ask_plainly(request, deadline)
+
+    def ask_checked(self, request: Request, task: GroundTask, goal: Goal, deadline: Deadline | None) -> Exchange:
+        """A taught model's answer made to run (:func:`hbtp.llm.checked.checked_answer`): every call
+        is recorded with its raw reply; the round's last reply is the plan kept."""
+        self.progress(f"asking {self.backend.name} (each action checked)")
+        calls: list[tuple[Request, Reply]] = []
+
+        def complete(step: Request) -> Reply:
+            reply = self.backend.complete(replace(step, deadline=deadline))
+            calls.append((step, reply))
+            return reply
+
+        try:
+            answer = checked_answer(complete, request, task, goal)
+        except BackendError as failure:
+            error = redact(str(failure))
+            log.warning("round %d: the LLM failed: %s", request.round, error)
+            return Exchange(request, (request,), (), None, sum(r.seconds for _, r in calls), error)
+        self.answered.add(request.sent_key(self.backend.prompt_style))
+        check = self.check(answer.text, path_only=True)
+        records = tuple(call_record(step, reply, check) for step, reply in answer.calls)
+        self.progress(_call_summary(records[-1]) + f", {len(records)} call(s), plan of {len(answer.plan)} actions")
+        return Exchange(
+            request,
+            tuple(step for step, _ in answer.calls),
+            (*(reply.text for _, reply in answer.calls), answer.text),
+            check,
+            answer.seconds,
+            "",
+            records,
+        )
+
+    def ask_plainly(self, request: Request, deadline: Deadline | None) -> Exchange:
         prompts: list[Request] = []
         replies: list[str] = []
         calls: list[dict[str, Any]] = []
@@ -198,7 +248,11 @@ class _Loop:
         self.prompt = options.prompt.for_backend(backend.prompt_style, taught=getattr(backend, "taught", False))
         self.config = planner_config(options.planner, heuristic=options.heuristic)
         self.progress = options.progress or _quiet
-        self.asker = _Asker(self.names, backend, options.grammar_retries, self.progress)
+        checking = None
+        if isinstance(world, GroundedWorld):
+            grounded, resolved = self.goal_in(world.scenario)
+            checking = (grounded.task, resolved)
+        self.asker = _Asker(self.names, backend, options.grammar_retries, self.progress, checking)
         self.rounds: list[RoundRecord] = []
         self.llm_seconds = self.planning_seconds = 0.0
         #: The latest round's p̂ and the action predicates and objects of every round so far (the space only grows).

@@ -1,0 +1,168 @@
+"""A taught model's plan, made to run with the action model before it prunes anything.
+
+A taught model answers a goal with a plan (:func:`hbtp.llm.prompt.taught_prompt`). A 270M model
+knows the steps that matter (fetch the knife, cut the pancake) better than every precondition on
+the way (the microwave is unplugged and closed in s0). hbtp knows which actions apply in which
+state, so the reply is simulated from s0, action by action:
+
+* an action that applies is kept, unless everything it adds already holds (it would change
+  nothing the plan needs: a second ``PlugIn`` of the same appliance), which is skipped;
+* an action whose preconditions do not all hold is preceded by a plan to them: the planner's
+  (OBTEA with the landmark heuristic, from the state the plan so far leads to, bounded by
+  :data:`GAP_EXPANSIONS` conditions), to the missing ones or, when that plan would undo another,
+  to all of them; when it finds none, the reply is cut there;
+* the plan ends as soon as the goal holds (what follows is not needed);
+* a plan that ends before the goal holds is continued: the model is asked again, the prompt being
+  the question and the plan so far, and its grammar (:func:`hbtp.llm.constrain.stepped_constraint`)
+  offering as the next action only those that apply.
+
+The model still proposes every step that is not a precondition; the action model fills gaps and
+takes away what cannot run. Bounded: at most :data:`MAX_STEPS` calls, :data:`MAX_GAPS` gaps and
+:data:`MAX_ACTIONS` actions; when a bound is reached the plan so far is the answer (its
+predicates and objects still prune the space; the loop's feedback rounds and fallback do the rest).
+The hints are the plan's predicates and objects, so when the plan reaches the goal the pruned space
+holds a plan that does, and the round's search (optimal in that space) finds a tree.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+
+from hbtp.llm.backend import Reply, Request
+from hbtp.llm.constrain import stepped_constraint
+from hbtp.logic.goal import Goal
+from hbtp.logic.task import GroundAction, GroundTask, State
+from hbtp.planning.heuristic_names import HeuristicName
+from hbtp.planning.limits import Limits
+from hbtp.planning.planners import plan
+
+#: The most model calls one checked answer makes.
+MAX_STEPS = 3
+#: The most actions a checked answer keeps (the longest plan a reply may have).
+MAX_ACTIONS = 24
+#: The most gaps filled in one answer, and the conditions one gap's search may explore.
+MAX_GAPS = 6
+GAP_EXPANSIONS = 2_000
+
+
+@dataclass(frozen=True)
+class CheckedAnswer:
+    """The plan kept (it runs from s0, in the datasets' spelling), whether it reaches the goal, and
+    every call made for it (its request and reply)."""
+
+    plan: tuple[str, ...]
+    reached: bool
+    calls: tuple[tuple[Request, Reply], ...]
+
+    @property
+    def text(self) -> str:
+        """The plan as a taught reply (what the model would have said had it been right at once)."""
+        return " " + ", ".join(self.plan) + "\n\n"
+
+    @property
+    def seconds(self) -> float:
+        return sum(reply.seconds for _, reply in self.calls)
+
+
+def _names_of(text: str) -> list[str]:
+    """The action names of a taught reply (a comma-separated plan up to the blank line)."""
+    first = text.strip().split("\n", 1)[0]
+    return [name.strip() for name in first.split(",") if name.strip()]
+
+
+class _Simulation:
+    """The plan so far and the state it leads to."""
+
+    def __init__(self, task: GroundTask, goal: Goal) -> None:
+        self.task, self.goal = task, goal
+        self.by_name = {action.signature.underscored: action for action in task.actions}
+        self.state: State = task.initial_state
+        self.plan: list[str] = []
+        self.gaps = 0
+
+    @property
+    def reached(self) -> bool:
+        return self.goal.holds(self.state)
+
+    def applicable(self) -> list[str]:
+        return sorted(name for name, action in self.by_name.items() if action.applicable(self.state))
+
+    def take(self, names: Sequence[str]) -> None:
+        """Apply ``names`` in order, each after a plan to its preconditions when they do not hold,
+        until the goal holds, the plan is full, or a gap cannot be filled."""
+        for name in names:
+            action = self.by_name.get(name)
+            if action is not None and action.add and action.add <= self.state:
+                continue
+            if action is None or not self.fill(action):
+                return
+            self.apply(action)
+            if self.reached or len(self.plan) >= MAX_ACTIONS:
+                return
+
+    def apply(self, action: GroundAction) -> None:
+        self.state = action.progress(self.state)
+        self.plan.append(action.signature.underscored)
+
+    def fill(self, action: GroundAction) -> bool:
+        """Make ``action`` apply: a plan to its missing preconditions, applied; when that plan undoes
+        another of them (puts down what the action needs held, to free a hand), a plan to all of
+        them instead. ``False`` when neither is found within the bounds."""
+        missing = action.pre - self.state
+        if not missing:
+            return True
+        if self.gaps >= MAX_GAPS:
+            return False
+        self.gaps += 1
+        for wanted in (missing, action.pre):
+            gap = self.gap(wanted)
+            if gap is not None and len(self.plan) + len(gap) < MAX_ACTIONS:
+                state = self.state
+                for step in gap:
+                    state = step.progress(state)
+                if action.applicable(state):
+                    for step in gap:
+                        self.apply(step)
+                    return True
+        return False
+
+    def gap(self, wanted: frozenset[int]) -> list[GroundAction] | None:
+        """An optimal plan from the current state to ``wanted`` (bounded), or ``None``."""
+        here = self.task.from_state(self.state)
+        goal = here.resolve_goal([self.task.atoms[atom] for atom in sorted(wanted)])
+        found = plan(here, goal, "obtea", heuristic=HeuristicName.LM, limits=Limits(max_expansions=GAP_EXPANSIONS))
+        return [self.task.actions[index] for index in found.solution] if found.solved else None
+
+
+def checked_answer(
+    complete: Callable[[Request], Reply], request: Request, task: GroundTask, goal: Goal
+) -> CheckedAnswer:
+    """Ask ``request`` (a taught model's question about ``goal``, resolved in ``task``) in checked
+    steps (see the module docstring); ``complete`` is the backend's call (it raises
+    :class:`hbtp.errors.BackendError`, which ends the answer: the caller sees it)."""
+    simulation = _Simulation(task, goal)
+    calls: list[tuple[Request, Reply]] = []
+    step = request  # the first question as it is: the model's own first action (a gap may precede it)
+    while not simulation.reached and len(calls) < MAX_STEPS and len(simulation.plan) < MAX_ACTIONS:
+        reply = complete(step)
+        calls.append((step, reply))
+        before = len(simulation.plan)
+        simulation.take(_names_of(reply.text))
+        masked = step is not request
+        if len(simulation.plan) == before and masked:  # not even an action that applies was kept
+            break
+        allowed = simulation.applicable()
+        if not allowed:
+            break
+        so_far = " " + ", ".join(simulation.plan) + "," if simulation.plan else ""
+        step = replace(
+            request,
+            completion_prompt=request.completion_prompt + so_far,
+            constraint=stepped_constraint(task, allowed, MAX_ACTIONS - len(simulation.plan)),
+            attempt=len(calls),
+        )
+    return CheckedAnswer(tuple(simulation.plan), simulation.reached, tuple(calls))
+
+
+__all__ = ["GAP_EXPANSIONS", "MAX_ACTIONS", "MAX_GAPS", "MAX_STEPS", "CheckedAnswer", "checked_answer"]

@@ -1,0 +1,126 @@
+"""A taught model's plan made to run before it prunes (hbtp.llm.checked), alone and in the loop."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+
+import pytest
+
+from hbtp.domains import Scenario, load_scenario
+from hbtp.errors import BackendError
+from hbtp.llm.backend import PromptStyle, Reply, Request
+from hbtp.llm.checked import MAX_STEPS, CheckedAnswer, checked_answer
+from hbtp.llm.prompt import PromptOptions, build_request
+from hbtp.llm.vocabulary import as_names
+from hbtp.logic.execution import apply_actions
+from hbtp.pipeline.loop import run_hbtp
+from hbtp.pipeline.results import Outcome
+
+Script = Callable[[Request], str]
+
+
+@pytest.fixture(scope="module")
+def robowaiter() -> Scenario:
+    return load_scenario("robowaiter")
+
+
+class Taught:
+    """A taught local model that answers by a script (and remembers what it was asked)."""
+
+    name = "scripted"
+    prompt_style = PromptStyle.COMPLETION
+    taught = True
+
+    def __init__(self, script: Script) -> None:
+        self.script = script
+        self.asked: list[Request] = []
+
+    def complete(self, request: Request) -> Reply:
+        self.asked.append(request)
+        return Reply(self.script(request), seconds=0.01, completion_tokens=5)
+
+    def close(self) -> None:
+        pass
+
+
+def _question(world: Scenario, goal: str) -> Request:
+    options = PromptOptions(style=PromptStyle.COMPLETION, taught=True)
+    return build_request(as_names(world.task), goal, [], options)
+
+
+def _answer(world: Scenario, goal: str, backend: Taught) -> CheckedAnswer:
+    return checked_answer(backend.complete, _question(world, goal), world.task, world.task.resolve_goal(goal))
+
+
+def _runs_to_goal(world: Scenario, plan: tuple[str, ...], goal: str) -> bool:
+    actions = [world.task.action(name) for name in plan]
+    state, applied = apply_actions(world.task, actions)
+    return applied == len(actions) and world.task.resolve_goal(goal).holds(state)
+
+
+def test_an_action_that_cannot_run_yet_is_preceded_by_a_plan_to_its_preconditions(robowaiter: Scenario) -> None:
+    goal = "On_Water_Table1"
+    backend = Taught(lambda _: " MoveTo_Water, PickUp_Water, MoveTo_Table1, PutDown_Water_Table1\n\n")
+    answer = _answer(robowaiter, goal, backend)
+    assert answer.reached
+    assert len(answer.calls) == 1
+    assert answer.plan[0] == "Make_Water"  # the water must exist before the robot can go to it
+    assert answer.plan[-4:] == ("MoveTo_Water", "PickUp_Water", "MoveTo_Table1", "PutDown_Water_Table1")
+    assert _runs_to_goal(robowaiter, answer.plan, goal)
+    assert answer.text == " " + ", ".join(answer.plan) + "\n\n"
+
+
+def test_a_plan_that_stops_short_is_continued_with_only_actions_that_apply_offered_first(robowaiter: Scenario) -> None:
+    goal = "On_Coffee_Table3"
+    rest = " MoveTo_Coffee, PickUp_Coffee, MoveTo_Table3, PutDown_Coffee_Table3\n\n"
+    backend = Taught(lambda request: rest if request.completion_prompt.endswith("Make_Coffee,") else " Make_Coffee\n\n")
+    answer = _answer(robowaiter, goal, backend)
+    assert answer.reached
+    assert len(backend.asked) == 2
+    first, second = backend.asked
+    assert second.completion_prompt == first.completion_prompt + " Make_Coffee,"
+    assert second.constraint is not None
+    offered = re.search(r"^first ::= (.*)$", second.constraint.gbnf, re.M)
+    assert offered is not None
+    state, _ = apply_actions(robowaiter.task, [robowaiter.task.action("Make_Coffee")])
+    applicable = {a.signature.underscored for a in robowaiter.task.actions if a.applicable(state)}
+    assert set(re.findall(r'"([^"]+)"', offered.group(1))) == applicable
+    assert _runs_to_goal(robowaiter, answer.plan, goal)
+
+
+def test_an_answer_is_bounded_and_what_cannot_run_is_not_kept(robowaiter: Scenario) -> None:
+    goal = "On_Coffee_Table3"
+    for text in (" Fly_Moon\n\n", " Turn_AC_On\n\n", "", " MoveTo_Bar\n\n"):
+        backend = Taught(lambda _, text=text: text)
+        answer = _answer(robowaiter, goal, backend)
+        assert len(backend.asked) <= MAX_STEPS
+        assert not answer.reached
+        assert _runs_to_goal(robowaiter, answer.plan, "On_Coffee_Table3") is False
+        actions = [robowaiter.task.action(name) for name in answer.plan]
+        assert apply_actions(robowaiter.task, actions)[1] == len(actions)  # what is kept runs
+
+
+def test_the_loop_solves_without_feedback_when_the_checked_plan_reaches_the_goal(robowaiter: Scenario) -> None:
+    goal = "On_Water_Table1"
+    backend = Taught(lambda _: " MoveTo_Water, PickUp_Water, MoveTo_Table1, PutDown_Water_Table1\n\n")
+    result = run_hbtp(robowaiter, goal, backend)
+    assert result.outcome == Outcome.after(0)
+    assert result.solved
+    (first,) = result.rounds
+    assert first.replies[-1].startswith(" Make_Water, MoveTo_Water")
+    assert len(first.calls) == 1
+    tree_actions = [robowaiter.task.actions[i] for i in result.result.solution]
+    state, applied = apply_actions(robowaiter.task, tree_actions)
+    assert applied == len(tree_actions)
+    assert robowaiter.task.resolve_goal(goal).holds(state)
+
+
+def test_a_backend_failure_while_checking_ends_the_asking_and_the_fallback_solves(robowaiter: Scenario) -> None:
+    def failing(_: Request) -> str:
+        raise BackendError("the model went away")
+
+    result = run_hbtp(robowaiter, "On_Coffee_Table3", Taught(failing))
+    assert result.outcome == Outcome.FALLBACK
+    assert result.solved
+    assert "went away" in result.rounds[0].error
