@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import re
+import time
 from collections.abc import Callable
 
 import pytest
 
+from hbtp.deadline import Deadline
 from hbtp.domains import Scenario, load_scenario
 from hbtp.errors import BackendError
 from hbtp.llm.backend import PromptStyle, Reply, Request
@@ -124,3 +126,22 @@ def test_a_backend_failure_while_checking_ends_the_asking_and_the_fallback_solve
     assert result.outcome == Outcome.FALLBACK
     assert result.solved
     assert "went away" in result.rounds[0].error
+
+
+def test_no_gap_is_searched_and_no_call_made_after_the_deadline(robowaiter: Scenario) -> None:
+    """The first call is made (the loop checks the deadline before asking); after the deadline the
+    reply's actions that need a gap are not kept and the model is not asked again."""
+    deadline = Deadline(0.05)
+
+    def late(_: Request) -> str:
+        time.sleep(0.1)  # the call uses up the time
+        return " MoveTo_Water, PickUp_Water, MoveTo_Table1, PutDown_Water_Table1\n\n"
+
+    backend = Taught(late)
+    world, goal = robowaiter, "On_Water_Table1"
+    answer = checked_answer(
+        backend.complete, _question(world, goal), world.task, world.task.resolve_goal(goal), deadline
+    )
+    assert len(backend.asked) == 1
+    assert answer.plan == ()  # MoveTo_Water needs Make_Water first: no gap is searched any more
+    assert not answer.reached

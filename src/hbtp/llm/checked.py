@@ -29,6 +29,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
+from hbtp.deadline import Deadline, expired
 from hbtp.llm.backend import Reply, Request
 from hbtp.llm.constrain import stepped_constraint
 from hbtp.logic.goal import Goal
@@ -74,8 +75,8 @@ def _names_of(text: str) -> list[str]:
 class _Simulation:
     """The plan so far and the state it leads to."""
 
-    def __init__(self, task: GroundTask, goal: Goal) -> None:
-        self.task, self.goal = task, goal
+    def __init__(self, task: GroundTask, goal: Goal, deadline: Deadline | None) -> None:
+        self.task, self.goal, self.deadline = task, goal, deadline
         self.by_name = {action.signature.underscored: action for action in task.actions}
         self.state: State = task.initial_state
         self.plan: list[str] = []
@@ -112,7 +113,7 @@ class _Simulation:
         missing = action.pre - self.state
         if not missing:
             return True
-        if self.gaps >= MAX_GAPS:
+        if self.gaps >= MAX_GAPS or expired(self.deadline):
             return False
         self.gaps += 1
         for wanted in (missing, action.pre):
@@ -131,20 +132,28 @@ class _Simulation:
         """An optimal plan from the current state to ``wanted`` (bounded), or ``None``."""
         here = self.task.from_state(self.state)
         goal = here.resolve_goal([self.task.atoms[atom] for atom in sorted(wanted)])
-        found = plan(here, goal, "obtea", heuristic=HeuristicName.LM, limits=Limits(max_expansions=GAP_EXPANSIONS))
+        limits = Limits(max_expansions=GAP_EXPANSIONS, deadline=self.deadline)
+        found = plan(here, goal, "obtea", heuristic=HeuristicName.LM, limits=limits)
         return [self.task.actions[index] for index in found.solution] if found.solved else None
 
 
 def checked_answer(
-    complete: Callable[[Request], Reply], request: Request, task: GroundTask, goal: Goal
+    complete: Callable[[Request], Reply],
+    request: Request,
+    task: GroundTask,
+    goal: Goal,
+    deadline: Deadline | None = None,
 ) -> CheckedAnswer:
     """Ask ``request`` (a taught model's question about ``goal``, resolved in ``task``) in checked
-    steps (see the module docstring); ``complete`` is the backend's call (it raises
-    :class:`hbtp.errors.BackendError`, which ends the answer: the caller sees it)."""
-    simulation = _Simulation(task, goal)
+    steps (see the module docstring), by ``deadline`` (no call and no gap search starts after it);
+    ``complete`` is the backend's call (it raises :class:`hbtp.errors.BackendError`, which ends the
+    answer: the caller sees it)."""
+    simulation = _Simulation(task, goal, deadline)
     calls: list[tuple[Request, Reply]] = []
     step = request  # the first question as it is: the model's own first action (a gap may precede it)
     while not simulation.reached and len(calls) < MAX_STEPS and len(simulation.plan) < MAX_ACTIONS:
+        if calls and expired(deadline):
+            break
         reply = complete(step)
         calls.append((step, reply))
         before = len(simulation.plan)

@@ -146,7 +146,7 @@ class _Asker:
             return reply
 
         try:
-            answer = checked_answer(complete, request, task, goal)
+            answer = checked_answer(complete, request, task, goal, deadline)
         except BackendError as failure:
             error = redact(str(failure))
             log.warning("round %d: the LLM failed: %s", request.round, error)
