@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import pytest
 
@@ -12,6 +13,7 @@ from hbtp.deadline import Deadline
 from hbtp.domains import Scenario, load_scenario
 from hbtp.errors import BackendError
 from hbtp.llm.backend import PromptStyle, Reply, Request
+from hbtp.llm.backends.replay import RecordingBackend, ReplayBackend
 from hbtp.llm.checked import MAX_STEPS, CheckedAnswer, checked_answer
 from hbtp.llm.prompt import PromptOptions, build_request
 from hbtp.llm.vocabulary import as_names
@@ -145,3 +147,22 @@ def test_no_gap_is_searched_and_no_call_made_after_the_deadline(robowaiter: Scen
     assert len(backend.asked) == 1
     assert answer.plan == ()  # MoveTo_Water needs Make_Water first: no gap is searched any more
     assert not answer.reached
+
+
+def test_a_recorded_taught_run_is_asked_as_taught_and_replays_to_the_same_tree(
+    robowaiter: Scenario, tmp_path: Path
+) -> None:
+    """Recording keeps a taught model taught (its short prompt, its checked plan), and a replay of the
+    file asks the same questions: every call is found and the tree is the same."""
+    goal, record = "On_Coffee_Table3", tmp_path / "taught.jsonl"
+    rest = " MoveTo_Coffee, PickUp_Coffee, MoveTo_Table3, PutDown_Coffee_Table3\n\n"
+    inner = Taught(lambda request: rest if request.completion_prompt.endswith("Make_Coffee,") else " Make_Coffee\n\n")
+    recorded = run_hbtp(robowaiter, goal, RecordingBackend(inner, record))
+    assert all(request.taught for request in inner.asked)
+    assert len(inner.asked) == 2  # the checked plan's continuation was recorded too
+    replayer = ReplayBackend(record)
+    assert replayer.taught
+    replayed = run_hbtp(robowaiter, goal, replayer)
+    assert replayed.outcome == recorded.outcome == Outcome.after(0)
+    assert replayed.result.solution == recorded.result.solution
+    assert replayed.rounds[0].replies == recorded.rounds[0].replies

@@ -17,9 +17,15 @@ from hbtp.llm.backend import Backend, PromptStyle, Reply, Request
 
 
 def _read(path: Path) -> dict[str, str]:
+    return _read_lines(path)[0]
+
+
+def _read_lines(path: Path) -> tuple[dict[str, str], bool]:
+    """The replies of a record file by key, and whether they were a taught model's (a line says so)."""
     table: dict[str, str] = {}
+    taught = False
     if not path.exists():
-        return table
+        return table, taught
     try:
         text = read_text(path, InputKind.RECORD)
     except InputError as error:
@@ -30,9 +36,10 @@ def _read(path: Path) -> dict[str, str]:
         try:
             entry = json.loads(line)
             table[str(entry["key"])] = str(entry["reply"])
-        except (json.JSONDecodeError, KeyError, TypeError):
+            taught = taught or entry.get("taught") is True
+        except (json.JSONDecodeError, KeyError, TypeError, AttributeError):
             raise BackendError(f'{path}:{number}: not a replay line (expected {{"key": ..., "reply": ...}})') from None
-    return table
+    return table, taught
 
 
 class ReplayBackend:
@@ -44,7 +51,9 @@ class ReplayBackend:
         self.path = Path(path)
         if not self.path.exists():
             raise BackendError(f"replay file {self.path} does not exist (record one with --record)")
-        self.table = _read(self.path)
+        #: ``taught``: the file recorded a model taught the world, so the loop asks the taught
+        #: model's questions again (their keys are the recorded ones).
+        self.table, self.taught = _read_lines(self.path)
 
     def complete(self, request: Request) -> Reply:
         started = time.perf_counter()
@@ -74,12 +83,20 @@ class RecordingBackend:
     def prompt_style(self) -> PromptStyle:
         return self.inner.prompt_style
 
+    @property
+    def taught(self) -> bool:
+        """Whether the inner backend is a model taught the world (it is asked as such, recorded or not)."""
+        return bool(getattr(self.inner, "taught", False))
+
     def complete(self, request: Request) -> Reply:
         key = request.key()
         if key in self.table:
             return Reply(self.table[key], 0.0, meta={"replayed": True})
         reply = self.inner.complete(request)
-        self._append(json.dumps({"key": key, "goal": request.goal, "round": request.round, "reply": reply.text}) + "\n")
+        line: dict[str, object] = {"key": key, "goal": request.goal, "round": request.round, "reply": reply.text}
+        if request.taught:
+            line["taught"] = True
+        self._append(json.dumps(line) + "\n")
         self.table[key] = reply.text
         return reply
 
