@@ -13,7 +13,7 @@ state, so the reply is simulated from s0, action by action:
   to all of them; when it finds none, the reply is cut there;
 * the plan ends as soon as the goal holds (what follows is not needed);
 * a plan that ends before the goal holds is continued: the model is asked again, the prompt being
-  the question and the plan so far, and its grammar (:func:`hbtp.llm.constrain.stepped_constraint`)
+  the question and the plan so far, and its grammar (:func:`hbtp.llm.constrain.constraint_of` with ``first``)
   offering as the next action only those that apply.
 
 The model still proposes every step that is not a precondition; the action model fills gaps and
@@ -30,8 +30,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 from hbtp.deadline import Deadline, expired
+from hbtp.errors import InputError
 from hbtp.llm.backend import Reply, Request
-from hbtp.llm.constrain import stepped_constraint
+from hbtp.llm.constrain import Bounds, constraint_of
+from hbtp.llm.parse import parse_reply
 from hbtp.logic.goal import Goal
 from hbtp.logic.task import GroundAction, GroundTask, State
 from hbtp.planning.heuristic_names import HeuristicName
@@ -66,10 +68,9 @@ class CheckedAnswer:
         return sum(reply.seconds for _, reply in self.calls)
 
 
-def _names_of(text: str) -> list[str]:
-    """The action names of a taught reply (a comma-separated plan up to the blank line)."""
-    first = text.strip().split("\n", 1)[0]
-    return [name.strip() for name in first.split(",") if name.strip()]
+def _names_of(text: str) -> tuple[str, ...]:
+    """The action names of a taught reply (it continues ``Optimal Actions:``), read as the loop reads it."""
+    return parse_reply("Optimal Actions:" + text).hints.path
 
 
 class _Simulation:
@@ -77,7 +78,6 @@ class _Simulation:
 
     def __init__(self, task: GroundTask, goal: Goal, deadline: Deadline | None) -> None:
         self.task, self.goal, self.deadline = task, goal, deadline
-        self.by_name = {action.signature.underscored: action for action in task.actions}
         self.state: State = task.initial_state
         self.plan: list[str] = []
         self.gaps = 0
@@ -87,13 +87,19 @@ class _Simulation:
         return self.goal.holds(self.state)
 
     def applicable(self) -> list[str]:
-        return sorted(name for name, action in self.by_name.items() if action.applicable(self.state))
+        return sorted(a.signature.underscored for a in self.task.actions if a.applicable(self.state))
+
+    def action(self, name: str) -> GroundAction | None:
+        try:
+            return self.task.action(name)
+        except InputError:  # not an action of the world (a reply read without the grammar)
+            return None
 
     def take(self, names: Sequence[str]) -> None:
         """Apply ``names`` in order, each after a plan to its preconditions when they do not hold,
         until the goal holds, the plan is full, or a gap cannot be filled."""
         for name in names:
-            action = self.by_name.get(name)
+            action = self.action(name)
             if action is not None and action.add and action.add <= self.state:
                 continue
             if action is None or not self.fill(action):
@@ -168,7 +174,9 @@ def checked_answer(
         step = replace(
             request,
             completion_prompt=request.completion_prompt + so_far,
-            constraint=stepped_constraint(task, allowed, MAX_ACTIONS - len(simulation.plan)),
+            constraint=constraint_of(
+                task, Bounds(actions=MAX_ACTIONS - len(simulation.plan)), path_only=True, first=allowed
+            ),
             attempt=len(calls),
         )
     return CheckedAnswer(tuple(simulation.plan), simulation.reached, tuple(calls))

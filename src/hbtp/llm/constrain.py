@@ -85,17 +85,25 @@ _NAME_RULES: TaskTable[tuple[str, str]] = TaskTable("the grammar rules of the na
 
 
 def constraint_of(
-    source: GroundTask | ActionNames, bounds: Bounds = Bounds(), *, path_only: bool = False
+    source: GroundTask | ActionNames,
+    bounds: Bounds = Bounds(),
+    *,
+    path_only: bool = False,
+    first: Iterable[str] | None = None,
 ) -> Constraint:
     """The constraint of the replies for a task (or its action names) with lists of at most ``bounds`` items.
 
     ``path_only``: the reply is the first line alone (a taught model's, :func:`hbtp.llm.prompt.taught_reply`).
-    The rules of the names are built once per task (kept with its names); only the first line,
-    which holds the bounds, changes from request to request."""
+    ``first``: the path's first action is one of these (a plan continued where they apply,
+    :mod:`hbtp.llm.checked`), the others any action.
+    The rules of the names are built once per task (kept with its names); only the first lines,
+    which hold the bounds and ``first``, change from request to request."""
     task = as_names(source)
     rules, action_pattern = _NAME_RULES.of(task, lambda: _names(task))
     predicates, objects = task.action_predicates, task.symbols
-    lists = f'" " {_bounded("action", bounds.actions)}'
+    lists = f'" " {_bounded("action" if first is None else "first", bounds.actions, then="action")}'
+    if first is not None:
+        rules = f"first ::= {' | '.join(gbnf_literal(name) for name in sorted(first))}\n" + rules
     if not path_only:
         lists += (
             f' "\\n{PREDICATES}: " {_bounded("predicate", _at_most(bounds.predicates, predicates))}'
@@ -111,28 +119,13 @@ def constraint_of(
     return Constraint(root + rules, json.dumps(schema, sort_keys=True))
 
 
-def stepped_constraint(source: GroundTask | ActionNames, allowed: Iterable[str], bound: int) -> Constraint:
-    """The constraint of a taught reply that continues a plan (:mod:`hbtp.llm.checked`): its first
-    action one of ``allowed`` (those that apply where the plan stands), then any action, at most
-    ``bound`` in all."""
-    task = as_names(source)
-    rules, action_pattern = _NAME_RULES.of(task, lambda: _names(task))
-    rest = f' (", " action){{0,{bound - 1}}}' if bound > 1 else ""
-    root = (
-        f'root ::= " " first{rest} end\n'
-        f"first ::= {' | '.join(gbnf_literal(name) for name in sorted(allowed))}\n"
-        'end ::= ( "\\n" "\\n"? )?\n'
-    )
-    schema = _schema(task, action_pattern, Bounds(actions=max(1, bound)))
-    return Constraint(root + rules, json.dumps(schema, sort_keys=True))
-
-
 def gbnf_literal(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
 
 
-def _bounded(item: str, bound: int) -> str:
-    return f'{item} (", " {item}){{0,{bound - 1}}}'
+def _bounded(item: str, bound: int, then: str | None = None) -> str:
+    """``item``, then up to ``bound - 1`` more (of ``then``, else ``item`` again), comma-separated."""
+    return f'{item} (", " {then or item}){{0,{bound - 1}}}'
 
 
 class NameRules:

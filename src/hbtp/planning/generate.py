@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 from hbtp.datasets.records import Record
 from hbtp.domains.mutex import Mutexes
+from hbtp.domains.reachability import reachable_actions
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom, parse_atom, parse_conjunction
 from hbtp.logic.task import Goal, GroundTask, State
@@ -178,27 +179,8 @@ def _writable(atom: Atom) -> bool:
 
 def relaxed_reachable(task: GroundTask) -> frozenset[int]:
     """The atoms the delete relaxation reaches from s0 (a superset of those a plan can make true)."""
-    reached = set(task.initial_state)
-    waiting = [len(action.pre) for action in task.actions]
-    needed_by: list[list[int]] = [[] for _ in task.atoms]
-    for action in task.actions:
-        for atom in action.pre:
-            needed_by[atom].append(action.index)
-    queue = [a.index for a in task.actions if not a.pre] + [
-        i for atom in reached for i in needed_by[atom] if _lower(waiting, i)
-    ]
-    while queue:
-        for atom in task.actions[queue.pop()].add:
-            if atom not in reached:
-                reached.add(atom)
-                queue.extend(i for i in needed_by[atom] if _lower(waiting, i))
-    return frozenset(reached)
-
-
-def _lower(waiting: list[int], action: int) -> bool:
-    """One more precondition of ``action`` reached: whether it was the last one."""
-    waiting[action] -= 1
-    return waiting[action] == 0
+    reachable = reachable_actions(task.initial_state, [(action.pre, action.add) for action in task.actions])
+    return task.initial_state.union(*(task.actions[index].add for index in reachable))
 
 
 def _draw_by_predicate(
