@@ -54,8 +54,9 @@ from hbtp.errors import InputError
 from hbtp.logic.execution import Disturbance, NodeStatus, Run, Trace, execute
 from hbtp.logic.task import Goal, GoalIds, GroundAction, GroundTask, State
 from hbtp.planning.heuristic_names import DEFAULT_HEURISTIC, HeuristicName
+from hbtp.planning.hints import Hints, PrunedSpace, resolve_hints
 from hbtp.planning.limits import Limits
-from hbtp.planning.planners import confirmed_search, planner_config
+from hbtp.planning.planners import Space, confirmed_search, planner_config
 from hbtp.planning.repair import RepairableSearch, repairable
 from hbtp.planning.result import PlanResult, Status
 from hbtp.planning.search_state import SearchConfig
@@ -64,6 +65,7 @@ from hbtp.planning.symmetry import find_symmetry
 log = logging.getLogger(__name__)
 
 __all__ = [
+    "PRUNED_EXPANSIONS",
     "UNSOLVABLE_FROM_STATE",
     "KeptSearch",
     "Replan",
@@ -71,6 +73,7 @@ __all__ = [
     "Replanner",
     "ReplanningRun",
     "SwapHook",
+    "full_space_cost",
     "replanning_runs",
     "replanning_stats",
     "replanning_summary",
@@ -84,6 +87,8 @@ UNSOLVABLE_FROM_STATE = "no tree reaches the goal from the observed state"
 #: Conditions a re-plan's repair explores before a state with interchangeable objects is searched
 #: afresh with symmetry pruning (see :func:`_repaired`).
 REPAIR_EXPANSIONS = 5_000
+#: Conditions a re-plan explores in the hints' space before it searches the full space.
+PRUNED_EXPANSIONS = 5_000
 
 #: Called when a re-plan swaps a tree in, with the new tree's policy (the old tree already halted).
 SwapHook = Callable[[TreePolicy], object]
@@ -97,6 +102,13 @@ class KeptSearch:
 
     def __init__(self) -> None:
         self.search: RepairableSearch | None = None
+        self._space: tuple[GroundTask, Hints, PrunedSpace] | None = None
+
+    def pruned_space(self, task: GroundTask, hints: Hints) -> PrunedSpace:
+        """The pruned space of ``hints`` in ``task``, built once for the re-plans that share this."""
+        if self._space is None or self._space[0] is not task or self._space[1] != hints:
+            self._space = (task, hints, PrunedSpace(task, resolve_hints(task, hints)))
+        return self._space[2]
 
     def take(self, goal: Goal, config: SearchConfig) -> RepairableSearch | None:
         """The kept search if it is one for ``goal`` and ``config`` (else it is dropped)."""
@@ -124,6 +136,10 @@ class ReplanOptions:
     #: The search re-plans continue, shared by the runs given these options (``None``: each
     #: :class:`Replanner` keeps its own; :func:`replanning_runs` gives its runs one).
     kept: KeptSearch | None = field(default=None, compare=False, repr=False)
+    #: The hints the tree was planned with (an LLM's, HBTP-S's pruned space): a re-plan first searches
+    #: their pruned space widened by the objects the state changed (see :meth:`Replanner.replan`), then
+    #: the full space. ``None``: the full space only (the optimal tree from the state).
+    hints: Hints | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.engine, Engine):
@@ -150,10 +166,16 @@ class Replan:
     cost: int | None = None
     message: str = ""
     tree: Node | None = field(default=None, compare=False, repr=False)
+    #: The action space whose search answered: the hints' (pruned) or every action's (full).
+    space: Space = Space.FULL
+    #: The state it planned from.
+    state: State = field(default=frozenset(), compare=False, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
-        """The re-plan without its tree (:meth:`trace_record` has it)."""
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "tree"}
+        """The re-plan without its tree (:meth:`trace_record` has it) and state."""
+        record = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in ("tree", "state")}
+        record["space"] = self.space.value
+        return record
 
     def trace_record(self, task: GroundTask) -> dict[str, Any]:
         """The re-plan as a trace line has it: tick, reason, seconds, status, cost and the new tree's
@@ -196,6 +218,8 @@ class Replanner:
         self.excluded: set[int] = set()
         #: The search the next re-plan continues (its ``search`` is ``None`` until a re-plan starts one).
         self.kept = options.kept if options.kept is not None else KeptSearch()
+        if options.hints is not None:  # built with the tree, not at the first re-plan
+            self.kept.pruned_space(self.task, options.hints)
         #: Why the policy stopped re-planning (``None`` while it may still re-plan).
         self.gave_up: str | None = None
         #: Whether it stopped because a re-plan proved the goal unreachable from the state.
@@ -229,14 +253,16 @@ class Replanner:
         if left <= 0:
             return self._give_up(f"the re-planning budget of {options.budget_s:g} s is spent")
         started = time.perf_counter()
-        result = self._plan(state, left)
+        space, result = self._plan(state, left)
         seconds = time.perf_counter() - started
         self.spent += seconds
-        log.info("tick %d: re-planned (%s) in %.1f ms: %s", self.ticks, reason, seconds * 1000, result.status.value)
+        log.info(
+            "tick %d: re-planned (%s) in %.1f ms: %s in the %s space",
+            self.ticks, reason, seconds * 1000, result.status.value, space.value,
+        )  # fmt: skip
         tree = tree_of(result, options.tree) if result.solved else None
-        self.replans.append(
-            Replan(self.ticks, reason, round(seconds, 6), result.status.value, result.cost, result.message, tree)
-        )
+        replan = Replan(self.ticks, reason, round(seconds, 6), result.status.value, result.cost, result.message)
+        self.replans.append(dataclasses.replace(replan, tree=tree, space=space, state=frozenset(state)))
         if result.status is Status.UNSOLVABLE:
             self.unsolvable = True
             return self._give_up(f"{UNSOLVABLE_FROM_STATE}: {result.message}")
@@ -253,7 +279,10 @@ class Replanner:
         for hook in self.on_swap:
             hook(self.policy)
 
-    def _plan(self, state: State, seconds: float) -> PlanResult:
+    def _plan(self, state: State, seconds: float) -> tuple[Space, PlanResult]:
+        """The new tree's search from ``state``: the hints' space first (when the options have hints
+        and it finds a tree within :data:`PRUNED_EXPANSIONS`), else the full space."""
+        started = time.perf_counter()
         world = self.task.from_state(state)
         goal = world.resolve_goal(self.goal)
         actions: Sequence[GroundAction] = world.actions
@@ -261,6 +290,31 @@ class Replanner:
             actions = [a for a in world.actions if a.index not in self.excluded]
         mutexes = self.mutexes if self.mutexes.conflict(frozenset(state)) is None else None
         config = planner_config(self.options.planner, heuristic=self.options.heuristic)
+        if self.options.hints is not None:
+            # widened by the objects of every atom the state changed from the start state: the hints
+            # did not foresee a disturbance (a thing moved, an appliance switched off)
+            changed = frozenset(state) ^ self.task.initial_state
+            pruned_space = self.kept.pruned_space(self.task, self.options.hints)
+            space = pruned_space.actions(obj for index in changed for obj in self.task.atoms[index].args)
+            limits = Limits(time_s=seconds, max_expansions=PRUNED_EXPANSIONS)
+            pruned = [world.actions[i] for i in space if i not in self.excluded]
+            result = confirmed_search(world, goal, pruned, config, mutexes=mutexes, limits=limits)
+            if result.solved:
+                return Space.PRUNED, result
+            log.info("no tree in the hints' space (%s): the full space", result.status.value)
+            seconds = max(seconds - (time.perf_counter() - started), 1e-9)
+        return Space.FULL, self._full(world, goal, actions, config, mutexes, seconds)
+
+    def _full(
+        self,
+        world: GroundTask,
+        goal: Goal,
+        actions: Sequence[GroundAction],
+        config: SearchConfig,
+        mutexes: Mutexes | None,
+        seconds: float,
+    ) -> PlanResult:
+        """The full space's search: the kept search continued (a repair) where it can be."""
         limits = Limits(time_s=seconds)
         if not self.options.repair or self.excluded or mutexes is None or not repairable(config):
             return confirmed_search(world, goal, actions, config, mutexes=mutexes, limits=limits)
@@ -431,6 +485,7 @@ def replanning_summary(base: Run, results: Sequence[ReplanningRun], goal: Goal) 
         mean_replans=round(statistics.fmean(len(r.replans) for r in results), 6) if results else None,
         median_replan_ms=round(1000 * statistics.median(times), 3) if times else None,
         max_replan_ms=round(1000 * max(times), 3) if times else None,
+        pruned_replans=sum(replan.space is Space.PRUNED for r in results for replan in r.replans),
         unsolvable_runs=len(unsolvable),
         budget_runs=sum(_hit_budget(r) for r in results),
         success_rate_reachable=(
@@ -438,6 +493,18 @@ def replanning_summary(base: Run, results: Sequence[ReplanningRun], goal: Goal) 
         ),
     )
     return stats
+
+
+def full_space_cost(
+    scenario: Scenario, goal: Goal, state: State, options: ReplanOptions = ReplanOptions()
+) -> int | None:
+    """The optimal cost from ``state`` (a fresh search of the full space with ``options``' planner and
+    heuristic; ``None`` when there is no tree): what a re-plan in the hints' space is checked against."""
+    world = scenario.task.from_state(state)
+    proved = scenario.mutexes.proved_only()
+    mutexes = proved if proved.conflict(frozenset(state)) is None else None
+    config = planner_config(options.planner, heuristic=options.heuristic)
+    return confirmed_search(world, world.resolve_goal(goal), world.actions, config, mutexes=mutexes).cost
 
 
 def _hit_budget(result: ReplanningRun) -> bool:

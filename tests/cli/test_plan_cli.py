@@ -324,7 +324,8 @@ def test_out_writes_a_json_tree_that_reads_back_to_the_same_tree(
         robothow.task, MILK, "hbtp-o", hints=hints, space="pruned", mutexes=robothow.mutexes, heuristic="none"
     )
     assert root == tree_of(result)
-    assert tree_to_json(root, robothow.task, scenario="robothow", goal=MILK) == text
+    assert tree_to_json(root, robothow.task, scenario="robothow", goal=MILK, hints=hints) == text
+    assert meta["hints"]["predicates"] == list(hints.predicates)  # planned in their space: re-plans search it
     # the path-only tree
     path_out = tmp_path / "path.json"
     code, _, _ = run(

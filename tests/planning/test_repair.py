@@ -9,6 +9,7 @@ mutexes, and on disturbed states of the shipped scenarios.
 
 from __future__ import annotations
 
+import dataclasses
 import random
 from pathlib import Path
 from typing import Any
@@ -20,8 +21,10 @@ from hbtp.bt import tree_of
 from hbtp.bt.disturb import seeded_disturbances
 from hbtp.domains import DomainBuilder, Scenario
 from hbtp.domains.mutex import infer_mutexes
-from hbtp.logic.task import GroundTask
+from hbtp.logic.task import Goal, GroundTask
 from hbtp.planning import PlanResult, Status, plan, planner_config, search
+from hbtp.planning.hints import PrunedSpace, hints_from_names, pruned_action_space, resolve_hints
+from hbtp.planning.planners import Space
 from hbtp.planning.repair import RepairableSearch, repairable
 from hbtp.planning.search_state import SearchConfig
 from hbtp.replanning import KeptSearch, Replanner, ReplanOptions, replanning_runs
@@ -40,6 +43,21 @@ def check_tree(result: PlanResult, task: GroundTask, state: frozenset[int]) -> N
 
 def random_states(task: GroundTask, rng: random.Random, count: int) -> list[frozenset[int]]:
     return [frozenset(i for i in range(len(task.atoms)) if rng.random() < 0.4) for _ in range(count)]
+
+
+def disturbed_states(scenario: Scenario, goal: Goal) -> list[frozenset[int]]:
+    """States four ticks of seeded disturbances (p = 0.5, seed 11) make from s0, where ``goal`` does
+    not hold and the proved mutexes do."""
+    task, proved = scenario.task, scenario.mutexes.proved_only()
+    states = []
+    for disturbance in seeded_disturbances(task, scenario.mutexes, 0.5, 15, seed=11):
+        state = task.initial_state
+        for tick in range(1, 5):
+            event = disturbance(tick, state, None, None)
+            state = event.apply(state) if event is not None else state
+        if not goal.holds(state) and proved.conflict(state) is None:
+            states.append(state)
+    return states
 
 
 @pytest.mark.parametrize("heuristic", CONTINUED)
@@ -163,13 +181,7 @@ def test_a_replanner_repairs_at_the_cost_of_a_fresh_search(
     policy = Replanner(robothow_small, goal, None, ReplanOptions(max_replans=100))
     config = planner_config("obtea", heuristic="lm")
     compared = 0
-    for disturbance in seeded_disturbances(task, robothow_small.mutexes, 0.5, 15, seed=11):
-        state = task.initial_state
-        for tick in range(1, 5):
-            event = disturbance(tick, state, None, None)
-            state = event.apply(state) if event is not None else state
-        if goal.holds(state) or mutexes.conflict(state) is not None:
-            continue
+    for state in disturbed_states(robothow_small, goal):
         world = task.from_state(state)
         fresh = search(world, world.resolve_goal(goal), world.actions, config, mutexes=mutexes)
         assert policy.replan(state, "test") == fresh.solved
@@ -249,3 +261,56 @@ def test_a_long_repair_gives_way_to_a_search_with_symmetry_pruning(monkeypatch: 
     assert run.cost == 5
     assert configs
     assert configs[-1].symmetry  # the fresh search pruned by the interchangeable shelves
+
+
+def test_a_replan_with_hints_searches_their_space_widened_by_what_changed(robothow_small: Scenario) -> None:
+    """With the hints the tree was planned with, a re-plan answers from their pruned space widened by
+    the objects of the atoms the state changed: at the cost of a fresh OBTEA search of that space,
+    its tree reaching the goal from the state; where that space holds no tree, from the full space at
+    the optimal cost. The pruned answer is checked against the full space's optimum (never below)."""
+    task, mutexes = robothow_small.task, robothow_small.mutexes.proved_only()
+    goal = task.resolve_goal("IsIn_apple_fridge & IsClose_fridge")
+    hints = hints_from_names(
+        predicates=["Walk", "RightGrab", "Open", "RightPutIn", "Close"], objects=["apple", "fridge"]
+    )
+    policy = Replanner(robothow_small, goal, None, ReplanOptions(max_replans=100, hints=hints))
+    config = planner_config("obtea", heuristic="lm")
+    spaces = []
+    for state in disturbed_states(robothow_small, goal):
+        world = task.from_state(state)
+        changed = {obj for index in state ^ task.initial_state for obj in task.atoms[index].args}
+        widened = hints_from_names(hints.path, hints.predicates, [*hints.objects, *changed])
+        pruned = plan(world, goal, config, hints=widened, space=Space.PRUNED, mutexes=mutexes)
+        optimum = replanning.full_space_cost(robothow_small, goal, state)
+        assert policy.replan(state, "test")
+        replan = policy.replans[-1]
+        expected = pruned.cost if pruned.solved else optimum
+        assert replan.space is (Space.PRUNED if pruned.solved else Space.FULL)
+        assert replan.cost == expected
+        assert optimum is not None
+        assert replan.cost >= optimum
+        assert replan.tree is not None
+        run = run_tree(replan.tree, world, state, 1000)
+        assert run.reached
+        assert run.cost == replan.cost
+        spaces.append(replan.space)
+        policy.gave_up = None
+    assert Space.PRUNED in spaces
+    assert len(spaces) >= 5
+
+
+def test_a_pruned_space_widens_by_objects_as_a_pass_over_every_action_does(robothow_small: Scenario) -> None:
+    task = robothow_small.task
+    hints = resolve_hints(task, hints_from_names(predicates=["Walk", "RightGrab", "Open"], objects=["apple", "fridge"]))
+    space = PrunedSpace(task, hints)
+    assert space.actions() == pruned_action_space(task, hints)
+    rng = random.Random(3)
+    for _ in range(20):
+        more = set(rng.sample(sorted(task.objects), 4))
+        wide = dataclasses.replace(hints, objects=hints.objects | more)
+        slow = tuple(
+            a.index
+            for a in task.actions
+            if a.predicate in wide.predicates and all(o in wide.objects for o in a.objects)
+        )
+        assert space.actions(more) == slow

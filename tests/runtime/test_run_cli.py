@@ -10,6 +10,7 @@ from click.testing import CliRunner
 
 from hbtp.bt import Action, Condition, Fallback, Node, Sequence, tree_of
 from hbtp.bt.jsonio import tree_to_json
+from hbtp.cli import EXIT_OK, main
 from hbtp.cli.robustness_command import robustness
 from hbtp.cli.run_command import run_command, verify_command
 from hbtp.cli.view_command import view_command
@@ -250,3 +251,32 @@ def test_the_runs_of_one_command_share_one_kept_search(
     assert record["replans"] >= 2
     assert len(made) == 1
     assert made[0].search is not None  # the last re-plan's search, kept for the next one
+
+
+def test_a_tree_planned_with_hints_records_them_and_re_plans_in_their_space(tmp_path: Path) -> None:
+    """``hbtp plan --llm oracle -o tree.json`` records the hints whose space the tree was planned in;
+    ``hbtp run --replan`` re-plans there first (most re-plans of these runs find a tree there; the
+    others in the full space), every run reaching the goal; ``--replan-full-space`` re-plans in the
+    full space only; a "hints" record of the wrong shape is a one-line error."""
+    file = tmp_path / "tree.json"
+    argv = ["plan", "-s", "robothow-small", "-g", GOAL, "--llm", "oracle", "--tree", "path", "-o", str(file)]
+    assert main(argv) == EXIT_OK
+    document = json.loads(file.read_text(encoding="utf-8"))
+    assert "Walk(apple)" in document["hints"]["path"]
+    assert set(document["hints"]) == {"path", "predicates", "objects"}
+    args = [str(file), "--replan", "5", "--perturb", "0.5", "--runs", "12", "--json"]
+    spaces = {}
+    for name, extra in (("hints", []), ("full", ["--replan-full-space"])):
+        result = CliRunner().invoke(run_command, [*args, *extra])
+        assert result.exit_code == 0, result.output
+        record = json.loads(result.output)
+        assert record["successes"] == 12
+        spaces[name] = [replan["space"] for row in record["results"] for replan in row["replans"]]
+    assert spaces["hints"].count("pruned") > spaces["hints"].count("full")
+    assert spaces["full"]
+    assert set(spaces["full"]) == {"full"}
+    document["hints"] = {"path": "Walk(apple)"}
+    file.write_text(json.dumps(document), encoding="utf-8")
+    result = CliRunner().invoke(run_command, [str(file), "--replan", "1"])
+    assert result.exit_code == 2
+    assert result.output.strip().endswith('"hints" must hold the lists "path", "predicates" and "objects" of names')

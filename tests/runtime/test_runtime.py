@@ -304,6 +304,28 @@ def test_robustness_benchmark_with_replanning(tmp_path: Path) -> None:
     assert "With re-planning" in (out / "report.md").read_text(encoding="utf-8")
 
 
+def test_robustness_re_plans_in_the_hints_space_are_checked_against_the_optimum(tmp_path: Path) -> None:
+    """Re-plans search the record's hints' space first; --check-replans counts those that found the
+    full space's optimum (never more than answered) and the cost they added; --replan-full-space
+    answers every re-plan from the full space, optimal."""
+    argv = ["bench", "robustness", "--replan", "--check-replans", "--scenarios", "robothow-small", "--limit", "6"]
+    argv += ["--runs", "6", "--p", "0.5", "--executor", "inline", "--no-progress"]
+    entries = {}
+    for name, extra in (("hints", []), ("full", ["--replan-full-space"])):
+        assert main([*argv, *extra, "-o", str(tmp_path / name)]) == EXIT_OK
+        summary = json.loads((tmp_path / name / "summary.json").read_text(encoding="utf-8"))
+        entries[name] = summary["scenarios"]["robothow-small"]["p"]["0.5"]["path+replan"]
+    hints, full = entries["hints"], entries["full"]
+    assert hints["reachable_runs_succeeded"] == hints["reachable_runs"] > 0
+    assert hints["replans"] > 0
+    assert 0 < hints["pruned_replans"] <= hints["replans"]
+    assert 0 <= hints["optimal_replans"] <= hints["pruned_replans"]
+    assert hints["replan_extra_cost"] >= 0
+    assert (hints["optimal_replans"] == hints["pruned_replans"]) == (hints["replan_extra_cost"] == 0)
+    assert full["pruned_replans"] == 0
+    assert full["replans"] > 0
+
+
 def test_hbtp_run_replans(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     tree = tmp_path / "tree.json"
     goal = "IsIn_apple_fridge & IsClose_fridge"

@@ -14,7 +14,7 @@ from __future__ import annotations
 import logging
 import time
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -27,7 +27,7 @@ from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, RunFailure, Work, ha
 from hbtp.bt import tree_of
 from hbtp.bt.disturb import perturbation_stats
 from hbtp.bt.nodes import Node, size
-from hbtp.bt.simulate import condition_checks
+from hbtp.bt.simulate import condition_checks, simulate
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
 from hbtp.domains import Scenario
@@ -36,8 +36,9 @@ from hbtp.llm.parse import hints_from_record
 from hbtp.logic.task import Goal
 from hbtp.planning import PLANNERS, Limits, PlanResult, plan
 from hbtp.planning.heuristic_names import HEURISTICS, HeuristicName
+from hbtp.planning.hints import Hints
 from hbtp.planning.planners import Space
-from hbtp.runtime import ReplanOptions, replanning_stats
+from hbtp.replanning import ReplanOptions, full_space_cost, replanning_runs, replanning_summary
 
 log = logging.getLogger(__name__)
 
@@ -150,6 +151,11 @@ class RobustnessRow(Row):
     max_replan_ms: float | None = None
     unsolvable_runs: int | None = optional()
     budget_runs: int | None = optional()
+    #: Re-plans the hints' space answered; of those checked, how many found the full space's optimum,
+    #: and the cost they added over it in all.
+    pruned_replans: int | None = optional()
+    optimal_replans: int | None = optional()
+    replan_extra_cost: int | None = optional()
     success_rate_reachable: float | None = None
     status: str | None = optional()
     time_s: float | None = optional()
@@ -176,6 +182,12 @@ class RobustnessConfig:
     replan: bool = False
     #: Re-plans continue the last re-plan's search (:mod:`hbtp.planning.repair`); ``False``: from scratch.
     repair: bool = True
+    #: Re-plans search the hints' space first (the record's hints, when the tree was planned in their
+    #: space: :attr:`hbtp.replanning.ReplanOptions.hints`); ``False``: the full space only.
+    replan_hints: bool = True
+    #: Check each re-plan the hints' space answered against a fresh search of the full space from
+    #: its state (the optimum): the rows' ``optimal_replans`` and ``replan_extra_cost``.
+    check_replans: bool = False
 
     @property
     def trees(self) -> tuple[str, ...]:
@@ -209,6 +221,8 @@ class RobustnessConfig:
             "robust": self.robust,
             "trees": list(self.trees),
             "repair": self.repair,
+            "replan_hints": self.replan_hints,
+            "check_replans": self.check_replans,
         }
 
 
@@ -300,6 +314,7 @@ def _run_task(scenario: Scenario, record: Record, config: RobustnessConfig) -> l
     )
     seconds = round(time.perf_counter() - started, 6)
     goal = scenario.task.resolve_goal(record.goal)
+    hints = hints_from_record(record) if how.endswith("/pruned") and config.replan_hints else None
     rows: list[RobustnessRow] = []
     for kind in config.trees:
         tree = tree_of(result, kind.removesuffix("+replan")) if result.solved else None
@@ -312,16 +327,21 @@ def _run_task(scenario: Scenario, record: Record, config: RobustnessConfig) -> l
             plan_time_s=seconds,
             absent=_FIGURES,
         )
-        rows += _tree_rows(scenario, goal, tree, config, planned)
+        rows += _tree_rows(scenario, goal, tree, config, planned, hints)
     return rows
 
 
 def _tree_rows(
-    scenario: Scenario, goal: Goal, tree: Node | None, config: RobustnessConfig, planned: RobustnessRow
+    scenario: Scenario,
+    goal: Goal,
+    tree: Node | None,
+    config: RobustnessConfig,
+    planned: RobustnessRow,
+    hints: Hints | None = None,
 ) -> list[RobustnessRow]:
     """One row per p for one tree (``None`` for a task not solved; ``planned`` the rows' fields known
-    from planning): its size, its condition checks undisturbed, and its figures under perturbations
-    (:func:`hbtp.bt.disturb.perturbation_stats`)."""
+    from planning; ``hints`` those re-plans search first): its size, its condition checks
+    undisturbed, and its figures under perturbations (:func:`hbtp.bt.disturb.perturbation_stats`)."""
     if tree is not None:
         checks = condition_checks(tree, scenario.task, max_ticks=config.max_ticks)
         planned = replace(planned, nodes=size(tree).nodes, condition_checks=checks)
@@ -330,19 +350,34 @@ def _tree_rows(
     for p in config.p_values:
         row = replace(planned, p=p)
         if tree is not None:
-            stats = _stats(scenario, goal, planned.tree, tree, p, seed, config)
+            stats = _stats(scenario, goal, planned.tree, tree, p, seed, config, hints)
             row = row.updated({k: v for k, v in stats.items() if k not in ("p", "seed")})
         rows.append(row)
     return rows
 
 
 def _stats(
-    scenario: Scenario, goal: Goal, kind: str, tree: Node, p: float, seed: int, config: RobustnessConfig
+    scenario: Scenario,
+    goal: Goal,
+    kind: str,
+    tree: Node,
+    p: float,
+    seed: int,
+    config: RobustnessConfig,
+    hints: Hints | None = None,
 ) -> dict[str, Any]:
-    if kind in REPLANNED:
-        options = ReplanOptions(repair=config.repair)
-        return replanning_stats(scenario, goal, tree, p, config.runs, seed, config.max_ticks, options)
-    return perturbation_stats(tree, scenario.task, goal, scenario.mutexes, p, config.runs, seed, config.max_ticks)
+    if kind not in REPLANNED:
+        return perturbation_stats(tree, scenario.task, goal, scenario.mutexes, p, config.runs, seed, config.max_ticks)
+    options = ReplanOptions(repair=config.repair, hints=hints)
+    base = simulate(tree, scenario.task, max_ticks=config.max_ticks)
+    results = replanning_runs(scenario, goal, tree, p, config.runs, seed, max_ticks=config.max_ticks, options=options)
+    stats = {"p": p, "seed": seed, **replanning_summary(base, results, goal)}
+    if config.check_replans:
+        pruned = [replan for result in results for replan in result.replans if replan.space is Space.PRUNED]
+        optima = [full_space_cost(scenario, goal, replan.state) for replan in pruned]
+        stats["optimal_replans"] = sum(r.cost == best for r, best in zip(pruned, optima, strict=True))
+        stats["replan_extra_cost"] = sum((r.cost or 0) - (best or 0) for r, best in zip(pruned, optima, strict=True))
+    return stats
 
 
 def summarise(
@@ -403,11 +438,21 @@ def _replanning(rows: Sequence[RobustnessRow]) -> dict[str, Any]:
         "reachable_runs_succeeded": sum(r.successes for r in replanned),
         "unsolvable_runs": unsolvable,
         "budget_runs": sum(r.budget_runs or 0 for r in rows),
+        "replans": sum(r.replans or 0 for r in rows),
+        "pruned_replans": sum(r.pruned_replans or 0 for r in rows),
+        "optimal_replans": _total(r.optimal_replans for r in rows),
+        "replan_extra_cost": _total(r.replan_extra_cost for r in rows),
         "median_plan_ms": median(1000 * r.plan_time_s for r in rows if r.plan_time_s is not None),
         "mean_replans": mean(r.mean_replans for r in rows),
         "median_replan_ms": median(r.median_replan_ms for r in rows),
         "max_replan_ms": max((r.max_replan_ms for r in rows if r.max_replan_ms is not None), default=None),
     }
+
+
+def _total(values: Iterable[int | None]) -> int | None:
+    """The sum of the values given (``None`` when none is)."""
+    known = [value for value in values if value is not None]
+    return sum(known) if known else None
 
 
 def _pairs(rows: Sequence[RobustnessRow]) -> list[tuple[float, float]]:

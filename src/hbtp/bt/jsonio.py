@@ -10,7 +10,9 @@
 unsolved search (``hbtp plan --partial``). A tree planned from the user's PDDL also records
 ``"pddl": {"domain": ..., "problem": ...}`` (paths relative to the tree file's folder, and the
 ``objects``, ``keep_fluent`` and ``mutex`` options when given), so that ``hbtp run``, ``verify``
-and ``export`` can reload the task. Trees nested deeper than
+and ``export`` can reload the task. A tree planned in the pruned space of some hints (an LLM's, or
+``--hints``) records them, ``"hints": {"path": [...], "predicates": [...], "objects": [...]}``:
+``hbtp run --replan`` searches their space first. Trees nested deeper than
 :data:`~hbtp.bt.nodes.MAX_TREE_DEPTH` levels are rejected.
 """
 
@@ -25,6 +27,7 @@ from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom, parse_atom
 from hbtp.logic.goals import parse_goal
 from hbtp.logic.task import Goal, GroundTask
+from hbtp.planning.hints import Hints
 
 FORMAT = "hbtp-tree"
 VERSION = 1
@@ -74,8 +77,10 @@ def tree_to_json(
     goal: GoalLike = "",
     complete: bool = True,
     pddl: Mapping[str, Any] | None = None,
+    hints: Hints | None = None,
 ) -> str:
-    """The tree as a JSON document (deterministic: same tree, same bytes)."""
+    """The tree as a JSON document (deterministic: same tree, same bytes); ``hints``: those whose
+    pruned space it was planned in (re-plans search that space first)."""
     document: dict[str, Any] = {
         "format": FORMAT,
         "version": VERSION,
@@ -85,6 +90,10 @@ def tree_to_json(
     }
     if pddl:
         document["pddl"] = dict(pddl)
+    if hints is not None:
+        document["hints"] = {
+            "path": list(hints.path), "predicates": list(hints.predicates), "objects": list(hints.objects)
+        }  # fmt: skip
     document["root"] = node_to_dict(node, task)
     return json.dumps(document, indent=1, ensure_ascii=False) + "\n"
 

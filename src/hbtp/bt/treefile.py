@@ -26,6 +26,7 @@ from hbtp.files import InputKind, read_bytes
 from hbtp.logic.atoms import Atom, parse_atom, split_conjunction
 from hbtp.logic.goals import parse_goal
 from hbtp.logic.task import Goal, GroundTask
+from hbtp.planning.hints import Hints, hints_from_names
 
 log = logging.getLogger(__name__)
 
@@ -141,6 +142,8 @@ class TreeFile:
     complete: bool = True
     pddl: PddlFiles | None = None
     content: Any = field(default=None, repr=False)
+    #: The hints whose pruned space the tree was planned in (JSON trees that record them).
+    hints: Hints | None = None
 
     def tree(self, task: GroundTask) -> Node:
         """The tree, its names resolved against ``task`` (:class:`InputError` for unknown ones)."""
@@ -226,7 +229,21 @@ def _json_file(source: str, text: str) -> TreeFile:
         raise InputError(f'{source}: "complete" must be true or false')
     pddl = document.get("pddl")
     files = PddlFiles.from_dict(pddl, Path(source).parent, source) if pddl is not None else None
-    return TreeFile(source, "json", scenario or None, stored, complete, files, document)
+    return TreeFile(source, "json", scenario or None, stored, complete, files, document, _hints(document, source))
+
+
+def _hints(document: Mapping[str, Any], source: str) -> Hints | None:
+    """The ``"hints"`` record of a JSON tree (``None`` when it has none)."""
+    record = document.get("hints")
+    if record is None:
+        return None
+    lists: list[list[str]] = []
+    for key in ("path", "predicates", "objects"):
+        names = record.get(key) if isinstance(record, dict) else None
+        if not isinstance(names, list) or not all(isinstance(name, str) for name in names):
+            raise InputError(f'{source}: "hints" must hold the lists "path", "predicates" and "objects" of names')
+        lists.append(names)
+    return hints_from_names(*lists)
 
 
 def pddl_record(

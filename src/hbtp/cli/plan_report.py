@@ -28,6 +28,7 @@ from hbtp.files import write_all_atomically
 from hbtp.logic.task import Goal
 from hbtp.pipeline import AutoResult, LoopResult
 from hbtp.pipeline.instruct import GoalChoice
+from hbtp.planning.hints import Hints
 from hbtp.planning.result import PlanResult, Status
 
 log = logging.getLogger(__name__)
@@ -48,6 +49,15 @@ class PlanOutcome:
     grounding: dict[str, Any] | None = None
     #: What the LLM made of ``--instruction``.
     chosen: GoalChoice | None = None
+
+    #: The hints of an LLM-free plan in their pruned space (``--hints``).
+    plain_hints: Hints | None = None
+
+    @property
+    def space_hints(self) -> Hints | None:
+        """The hints whose pruned space the tree was planned in (``None``: the full space); the tree
+        file keeps them, and re-plans of ``hbtp run --replan`` search that space first."""
+        return self.loop.space_hints if self.loop is not None else self.plain_hints
 
 
 @dataclass(frozen=True)
@@ -106,8 +116,9 @@ class PlanReport:
             # the PDDL files are recorded so that run/verify can reload the scenario
             pddl = pddl_record(pddl_files(self.request.source), outputs.out_file, warn=True)
             files[Path(outputs.out_file)] = tree_to_json(
-                tree, task, scenario=name, goal=goal, complete=self.outcome.result.solved, pddl=pddl
-            )
+                tree, task, scenario=name, goal=goal, complete=self.outcome.result.solved, pddl=pddl,
+                hints=self.outcome.space_hints,
+            )  # fmt: skip
         return files
 
     def _print_json(self, tree: Node | None) -> None:

@@ -177,17 +177,19 @@ def _plain(session: PlanSession) -> PlanOutcome:
     if hints is None:  # hints name actions of the whole grounding; a search without them needs fewer
         scenario = scenario.for_goal(goal)
     config = planner_config(search.planner, heuristic=search.heuristic, alpha=search.alpha, symmetry=search.symmetry)
+    space = search.space or (Space.PRUNED if hints is not None else Space.FULL)
     result = plan(
         scenario.task,
         goal,
         config,
         hints=hints,
-        space=search.space or (Space.PRUNED if hints is not None else Space.FULL),
+        space=space,
         mutexes=scenario.mutexes,
         limits=session.limits,
         extra_expansions=search.extra_expansions,
     )
-    return PlanOutcome(scenario, goal, result, search.hints.label, chosen=session.chosen)
+    pruned = hints if space is Space.PRUNED else None
+    return PlanOutcome(scenario, goal, result, search.hints.label, chosen=session.chosen, plain_hints=pruned)
 
 
 def _loop(session: PlanSession) -> PlanOutcome:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +23,54 @@ def _figure(value: float | None, percent: bool = False) -> str:
     return f"{100 * value:.1f}%" if percent else f"{value:+.2f}"
 
 
+@dataclass(frozen=True)
+class Replanning:
+    """The re-planning asked for: whether at all, by repair, in the hints' space first, checked."""
+
+    replan: bool
+    repair: bool
+    hints: bool
+    check: bool
+
+
+def _replanning(replan: bool | None, full_space: bool, check_replans: bool) -> Replanning:
+    return Replanning(replan is not None, replan is not False, not full_space, check_replans)
+
+
+#: The re-planning options, handed to :func:`_config` as ``replanning: Replanning``.
+replanning_options = option_group(
+    "replanning",
+    _replanning,
+    click.option(
+        "--replan",
+        "replan",
+        flag_value=True,
+        default=None,
+        help="Also run each tree with re-planning from the state it fails in (rows full+replan, path+replan): "
+        "each re-plan searches the record's hints' space first (widened by the objects the state changed), "
+        "then the full space, continuing the last search there (repair).",
+    ),
+    click.option(
+        "--replan-from-scratch",
+        "replan",
+        flag_value=False,
+        help="As --replan, with a new search for each re-plan (for comparison).",
+    ),
+    click.option(
+        "--replan-full-space",
+        "full_space",
+        is_flag=True,
+        help="Re-plans search the full space only (the optimal tree from the state), not the hints' space first.",
+    ),
+    click.option(
+        "--check-replans",
+        is_flag=True,
+        help="Check every re-plan the hints' space answered against a fresh search of the full space "
+        "(the optimum from its state).",
+    ),
+)
+
+
 def _config(
     p_text: str,
     runs: int,
@@ -32,7 +81,7 @@ def _config(
     max_ticks: int,
     robust: int,
     limit: int | None,
-    replan: bool | None,
+    replanning: Replanning,
 ) -> RobustnessConfig:
     chosen = comma_choices(scenario_text, SCENARIOS, "--scenarios", "scenario")
     if runs < 1:
@@ -49,8 +98,10 @@ def _config(
         planner=planner,
         heuristic=heuristic,
         robust=robust,
-        replan=replan is not None,
-        repair=replan is not False,
+        replan=replanning.replan,
+        repair=replanning.repair,
+        replan_hints=replanning.hints,
+        check_replans=replanning.check,
     )
 
 
@@ -90,39 +141,29 @@ robustness_options = option_group(
         "--robust", type=click.IntRange(0), default=0, show_default=True, help="Extra expansions after each solution."
     ),
     click.option("--limit", type=int, help="Only the first N tasks of each test set."),
-    click.option(
-        "--replan",
-        "replan",
-        flag_value=True,
-        default=None,
-        help="Also run each tree with re-planning from the state it fails in (rows full+replan, path+replan), "
-        "each re-plan continuing the last search (repair).",
-    ),
-    click.option(
-        "--replan-from-scratch",
-        "replan",
-        flag_value=False,
-        help="As --replan, with a new search for each re-plan (for comparison).",
-    ),
+    replanning_options,
 )
 
 
 def _echo_replanning(summary: dict[str, Any], config: RobustnessConfig) -> None:
-    """The re-planning figures: runs reached of those still reachable, budget hits, re-plan and plan times."""
-    how = "from scratch" if not config.repair else "repair"
+    """The re-planning figures: runs reached of those still reachable, budget hits, re-plan and plan
+    times, re-plans the hints' space answered (and, checked, how many of them found the optimum)."""
+    how = ("from scratch" if not config.repair else "repair") + (", hints first" if config.replan_hints else "")
     click.echo(
         f"re-planning ({how}): {'scenario':15} {'p':>4} {'tree':11} {'reached':>13} {'budget':>6} "
-        f"{'median replan ms':>16} {'max replan ms':>13} {'median plan ms':>14}"
+        f"{'median replan ms':>16} {'max replan ms':>13} {'median plan ms':>14} {'hints/all':>10} {'optimal':>7}"
     )
     for name, block in summary["scenarios"].items():
         for p, entry in block["p"].items():
             for kind in REPLANNED:
                 row = entry[kind]
                 reached = f"{row['reachable_runs_succeeded']}/{row['reachable_runs']}"
+                answered = f"{row['pruned_replans']}/{row['replans']}"
+                optimal = "-" if row["optimal_replans"] is None else str(row["optimal_replans"])
                 click.echo(
                     f"re-planning ({how}): {name:15} {p:>4} {kind:11} {reached:>13} {row['budget_runs']:>6} "
                     f"{_ms(row['median_replan_ms']):>16} {_ms(row['max_replan_ms']):>13} "
-                    f"{_ms(row['median_plan_ms']):>14}"
+                    f"{_ms(row['median_plan_ms']):>14} {answered:>10} {optimal:>7}"
                 )
 
 

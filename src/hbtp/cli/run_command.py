@@ -133,6 +133,7 @@ class RunRequest:
     seed: int
     max_ticks: int
     replan: int
+    replan_full_space: bool
     engine: Engine
     action_ticks: int
     tick_hz: TickRate | None
@@ -187,7 +188,13 @@ run_options = option_group(
         default=0,
         show_default=True,
         help="Re-plan from the state (OBTEA, landmark heuristic) when no condition of the tree holds, "
-        "at most this many times per run; 0: never.",
+        "at most this many times per run; 0: never. A tree file that records the hints it was planned "
+        "with (an LLM's) is re-planned in their space first, widened by the objects the state changed.",
+    ),
+    click.option(
+        "--replan-full-space",
+        is_flag=True,
+        help="Re-plan in the full space only (the optimal tree from the state), not the hints' space first.",
     ),
     click.option(
         "--engine",
@@ -348,7 +355,10 @@ def _run_replanning(read: TreeInput, tree_file: str, request: RunRequest) -> int
     finally:
         undisturbed.halt()
     # The runs share one kept search (as replanning_runs does): a re-plan continues the runs' before it.
-    options = ReplanOptions(max_replans=replan, engine=engine, kept=KeptSearch())
+    # The hints the file records were for its own goal: another goal (-g) re-plans in the full space.
+    own = read.file.hints is not None and read.file.resolve_goal(task) == goal
+    hints = read.file.hints if own and not request.replan_full_space else None
+    options = ReplanOptions(max_replans=replan, engine=engine, kept=KeptSearch(), hints=hints)
     results = [
         run_replanning(
             read.scenario, goal, read.tree, max_ticks=max_ticks, disturbance=disturbance, options=options,
@@ -368,8 +378,9 @@ def _run_replanning(read: TreeInput, tree_file: str, request: RunRequest) -> int
             click.echo(f"{engine.label}:")
         _echo_disturbed(stats, base.reached(goal), base, perturb, seed)
         median = stats["median_replan_ms"]
+        space = f" ({stats['pruned_replans']} in the hints' space)" if hints is not None else ""
         click.echo(
-            f"re-plans: {stats['replans']} in all, median {_number(median)} ms; "
+            f"re-plans: {stats['replans']} in all{space}, median {_number(median)} ms; "
             f"{stats['unsolvable_runs']} run(s) ended with the goal unreachable from their state"
         )
         for result in results:

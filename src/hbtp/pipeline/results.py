@@ -236,6 +236,14 @@ class LoopResult:
     def solved(self) -> bool:
         return self.result.solved
 
+    @property
+    def space_hints(self) -> Hints | None:
+        """The hints whose pruned space the tree was planned in (the solving round's); ``None`` when
+        no round solved the task (the fallback searched the full space)."""
+        if self.outcome.ending is not Ending.ROUND or not self.rounds:
+            return None
+        return self.rounds[-1].hints
+
     def to_dict(self) -> dict[str, Any]:
         return {
             "outcome": self.outcome.label,

@@ -10,7 +10,7 @@ from __future__ import annotations
 import hashlib
 import logging
 import random
-from collections import Counter
+from collections import Counter, defaultdict
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import TypeVar
@@ -117,12 +117,36 @@ def resolve_hints(task: GroundTask, hints: Hints) -> ResolvedHints:
     )
 
 
+class PrunedSpace:
+    """The pruned action space of some hints, A⁻ = (Q⁻ × O⁻) ∩ A with Q⁻ = Q̂ ∪ Q(p̂) and
+    O⁻ = Ô ∪ O(p̂) (every argument must be in O⁻), and that space widened by more objects, found
+    without a pass over every action (a re-plan widens it by the objects a disturbance changed)."""
+
+    def __init__(self, task: GroundTask, hints: ResolvedHints) -> None:
+        space = hints.space(task)
+        self.objects = space.objects
+        self.base: list[int] = []
+        #: The actions of Q⁻ with arguments outside O⁻, each under the least of those arguments.
+        self.outside: dict[str, list[tuple[int, frozenset[str]]]] = defaultdict(list)
+        for action in task.actions:
+            if action.predicate not in space.predicates:
+                continue
+            extra = frozenset(o for o in action.objects if o not in space.objects)
+            if extra:
+                self.outside[min(extra)].append((action.index, extra))
+            else:
+                self.base.append(action.index)
+
+    def actions(self, more: Iterable[str] = ()) -> tuple[int, ...]:
+        """The indices of A⁻ with O⁻ widened by the objects ``more``, in the task's order."""
+        added = set(more) - self.objects
+        found = [index for obj in added for index, extra in self.outside.get(obj, ()) if extra <= added]
+        return tuple(sorted([*self.base, *found])) if found else tuple(self.base)
+
+
 def pruned_action_space(task: GroundTask, hints: ResolvedHints) -> tuple[int, ...]:
-    """A⁻ = (Q⁻ × O⁻) ∩ A with Q⁻ = Q̂ ∪ Q(p̂) and O⁻ = Ô ∪ O(p̂): every argument must be in O⁻."""
-    space = hints.space(task)
-    return tuple(
-        a.index for a in task.actions if a.predicate in space.predicates and all(o in space.objects for o in a.objects)
-    )
+    """A⁻ = (Q⁻ × O⁻) ∩ A (:class:`PrunedSpace`)."""
+    return PrunedSpace(task, hints).actions()
 
 
 def hints_from_names(path: Iterable[str] = (), predicates: Iterable[str] = (), objects: Iterable[str] = ()) -> Hints:
