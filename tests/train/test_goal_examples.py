@@ -1,4 +1,4 @@
-"""Instruction examples for a taught model (hbtp.train.goal_examples): solvable goals of three
+"""Instruction examples for a taught model (hbtp.train.goal_examples): solvable goals of several
 shapes said in words, and refusals of instructions about what the world lacks."""
 
 from __future__ import annotations
@@ -9,12 +9,14 @@ import pytest
 
 from hbtp.domains import Scenario
 from hbtp.llm.goal_prompt import refusal_of, taught_goal_prompt
+from hbtp.logic.atoms import Atom
 from hbtp.logic.execution import apply_actions
 from hbtp.logic.goals import parse_goal
 from hbtp.planning import plan
 from hbtp.planning.generate import LEVELS, Sampling, generate_records
-from hbtp.train.examples import ExampleKind, check_disjoint, goal_key, held_goals
+from hbtp.train.examples import ExampleKind, check_disjoint, everyday, goal_key, held_goals, sample_records
 from hbtp.train.goal_examples import (
+    about_world,
     foreign_objects,
     goal_examples,
     instruction_goal,
@@ -22,7 +24,7 @@ from hbtp.train.goal_examples import (
     negatable,
     unmet_literals,
 )
-from hbtp.train.verbalise import words_for
+from hbtp.train.words import words_for
 
 
 @pytest.fixture(scope="module")
@@ -32,12 +34,14 @@ def records(virtualhome: Scenario) -> list:
 
 def test_every_instruction_goal_is_solvable_and_not_already_true(virtualhome: Scenario, records: list) -> None:
     rng = random.Random(2)
-    shapes = {"one": 0, "and": 0, "or": 0, "not": 0}
-    for record in records:
+    shapes = {"one": 0, "and": 0, "or": 0, "not": 0, "longer": 0}
+    for record in records * 3:
         goal = instruction_goal(virtualhome, record, records, rng)
         terms = parse_goal(goal)
         negated = any(a.negated for a in terms[0])
-        shapes["or" if len(terms) > 1 else "not" if negated else "one" if len(terms[0]) == 1 else "and"] += 1
+        longer = len(terms) == 1 and len(terms[0]) > len(parse_goal(record.goal)[0])  # group, both, kept
+        shape = "or" if len(terms) > 1 else "not" if negated else "longer" if longer else "and"
+        shapes["one" if len(terms) == 1 and len(terms[0]) == 1 else shape] += 1
         extended, resolved = virtualhome.resolve_goal(goal)
         assert not resolved.holds(extended.task.initial_state), goal
         result = plan(extended.task, resolved, "obtea", heuristic="lm", mutexes=extended.mutexes.proved_only())
@@ -112,3 +116,38 @@ def test_no_instruction_goal_is_an_evaluation_goal(virtualhome: Scenario) -> Non
     assert any(goal_key(literal) in held for literal in singles)  # the draw can hit one
     examples = goal_examples(virtualhome, many, seed=5)
     check_disjoint(examples, held, virtualhome.name)
+
+
+def test_literals_about_the_robot_are_mostly_dropped(robothow: Scenario) -> None:
+    """A walk's end makes the robot's hands full: an instruction seldom asks for that beside the
+    world's changes, and the same plan reaches what is kept."""
+    words = words_for(robothow)
+    task = robothow.task
+    rng = random.Random(1)
+    drawn = generate_records(task, LEVELS["any"], 40, Sampling(seed=2), robothow.mutexes)
+
+    def own(literal: Atom) -> bool:
+        return any(words.noun(arg).agent for arg in literal.args)
+
+    before = after = 0
+    for record in drawn:
+        kept = about_world(record, words, rng)
+        literals, left = parse_goal(record.goal)[0], parse_goal(kept.goal)[0]
+        assert left
+        assert set(left) <= set(literals)
+        if not all(map(own, literals)):
+            assert any(not own(literal) for literal in left)
+        final, _ = apply_actions(task, [task.action(name) for name in record.optimal_actions])
+        assert all(task.atom_id(literal) in final for literal in left)
+        before += sum(map(own, literals))
+        after += sum(map(own, left))
+    assert before >= 10
+    assert after < before / 2, (before, after)
+
+
+def test_instructions_are_built_on_everyday_goals_only(robowaiter: Scenario) -> None:
+    records, _ = sample_records(robowaiter, 60, seed=0, max_expansions=20_000)
+    walks = everyday(records)
+    assert 0 < len(walks) < len(records)
+    assert all(record.id.startswith("walk-") for record in walks)
+    assert all(record.id.startswith("reachable-") for record in records if record not in walks)

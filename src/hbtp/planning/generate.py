@@ -251,7 +251,7 @@ def sample_goals(
         if proved is not None and proved.conflict(literals) is not None:
             continue
         seen.add(literals)
-        labelled = _label(task, literals, proved, limits)
+        labelled = label_goal(task, literals, proved, limits)
         if labelled is not None and level.fits(len(literals), len(labelled.plan)):
             length = len(labelled.plan)
             (found if lengths[length] < quota else spare).append(labelled)
@@ -265,7 +265,9 @@ def sample_goals(
     return found
 
 
-def _label(task: GroundTask, literals: frozenset[int], mutexes: Mutexes | None, limits: Limits) -> LabelledGoal | None:
+def label_goal(
+    task: GroundTask, literals: frozenset[int], mutexes: Mutexes | None, limits: Limits
+) -> LabelledGoal | None:
     """``literals`` with an optimal plan, or ``None`` when the bounded search does not find one or
     a plan's action cannot be written in the datasets' spelling."""
     goal = task.resolve_goal([task.atoms[i] for i in sorted(literals)])

@@ -12,8 +12,11 @@ from dataclasses import dataclass
 
 from hbtp.domains import Scenario
 from hbtp.errors import InputError
-from hbtp.train.examples import Example, check_disjoint, held_goals, hints_example, sample_records, split
-from hbtp.train.goal_examples import goal_examples
+from hbtp.train.examples import Example, check_disjoint, everyday, held_goals, hints_example, sample_records, split
+from hbtp.train.goal_examples import PER_GOAL, goal_examples
+
+#: Changes whenever the same request makes other examples (a resumed run never mixes the two).
+EXAMPLES_FORMAT = 2
 
 
 @dataclass(frozen=True)
@@ -39,7 +42,8 @@ def make_examples(
     sets; :class:`InputError` when the world is too small to sample from.
 
     Labelled goals are held back whole: a held-back goal is in no training example of either kind.
-    With ``instructions``, each goal also gives an instruction example (:mod:`hbtp.train.goal_examples`)."""
+    With ``instructions``, each goal of everyday activity (:func:`~hbtp.train.examples.everyday`) also
+    gives :data:`~hbtp.train.goal_examples.PER_GOAL` instruction examples (:mod:`hbtp.train.goal_examples`)."""
     records, dropped = sample_records(scenario, count, seed, max_expansions)
     if len(records) < 2:
         raise InputError(
@@ -50,11 +54,11 @@ def make_examples(
     for index, part in enumerate(split(records, held_out, seed)):
         examples = [hints_example(record) for record in part]
         if instructions:
-            examples += goal_examples(scenario, part, seed * 2 + index)
+            examples += goal_examples(scenario, everyday(part), seed * 2 + index, PER_GOAL)
         random.Random(f"order|{seed}|{index}").shuffle(examples)
         parts.append(tuple(examples))
     check_disjoint((e for part in parts for e in part), held_goals(scenario), scenario.name)
     return ExampleSet(parts[0], parts[1], dropped)
 
 
-__all__ = ["ExampleSet", "make_examples"]
+__all__ = ["EXAMPLES_FORMAT", "ExampleSet", "make_examples"]

@@ -17,7 +17,7 @@ import contextlib
 import enum
 import random
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TypeVar
 
 from hbtp.datasets import dataset_names, load_dataset
@@ -128,6 +128,7 @@ def sample_records(scenario: Scenario, count: int, seed: int, max_expansions: in
         sampling = Sampling(seed=seed * 1_000 + offset, max_expansions=max_expansions, draw=draw)
         wanted = max(1, round(count * share))
         for record in generate_records(scenario.task, LEVELS[level], wanted, sampling, scenario.mutexes):
+            record = replace(record, id=f"{draw.value}-{level}-{record.id}")
             key = goal_key(record.goal)
             if key in held:
                 dropped += 1
@@ -135,6 +136,12 @@ def sample_records(scenario: Scenario, count: int, seed: int, max_expansions: in
                 seen.add(key)
                 records.append(record)
     return records, dropped
+
+
+def everyday(records: Iterable[Record]) -> list[Record]:
+    """The records of :func:`sample_records` whose goals are the ends of random walks
+    (:data:`Draw.WALK <hbtp.planning.generate.Draw>`: their ids start with ``walk-``)."""
+    return [record for record in records if record.id.startswith(f"{Draw.WALK.value}-")]
 
 
 def split(records: Sequence[_T], held_out: float, seed: int) -> tuple[list[_T], list[_T]]:
@@ -155,6 +162,7 @@ __all__ = [
     "LeakError",
     "check_disjoint",
     "evaluation_goals",
+    "everyday",
     "goal_key",
     "held_goals",
     "hints_example",

@@ -1,23 +1,32 @@
 """Instruction examples for a taught model: goals said in words, and what to answer.
 
-The goals are built from the planner's labelled goals (:mod:`hbtp.train.examples`), so every one is
-solvable and none holds at the start:
+The goals are built from the planner's labelled goals of everyday activity (the ends of random
+walks, :data:`hbtp.planning.generate.Draw.WALK`: goals drawn from every reachable atom ask for
+intermediate facts such as where the robot stands, which people rarely ask for, and a model taught
+them adds such literals to what people said). A walk's end also makes several facts about the
+robot itself true (what its hands hold): most of them are dropped (:func:`about_world`). Every goal
+is solvable and none holds at the start:
 
 * *one*: one literal of a labelled goal that does not hold at the start (most instructions people
   give ask for one thing; labelled goals mostly have two or three literals);
 * *and*: a labelled goal as it is (one literal or several);
+* *group*: a labelled goal with one or two more literals alike one of its own but for one argument
+  (``IsOn_pear_table`` beside ``IsOn_apple_table``): people list things, "put the pear and the apple
+  on the table", and :func:`hbtp.train.verbalise.verbalise` says such literals as one list;
+* *both*: two labelled goals asked for together (longer conjunctions);
 * *kept*: a labelled goal and a literal that holds at the start and that its optimal plan leaves
   true (people ask for what is so already, "and leave the light off", beside what is not);
 * *or*: two labelled goals as alternatives (``A | B``);
 * *not*: a labelled goal with the negation of an atom its optimal plan makes false
   (``A & ~p``: the plan reaches it), or that negation alone.
 
-Each is said as an instruction by :func:`hbtp.train.verbalise.verbalise` and answered with the goal
+A *group* or *both* goal is kept only when the labelling search solves it within
+:data:`LABEL_EXPANSIONS` (else the labelled goal is used). Each goal is said as an instruction by
+:func:`hbtp.train.verbalise.verbalise` and answered with the goal
 (:func:`hbtp.llm.goal_prompt.taught_goal_reply`). A share of *refusals* teaches the model to refuse
 an instruction about something the world lacks: a labelled goal with one of its objects swapped for
 an object of the words file this world does not have ("put the sofa in the fridge" where there is no
-sofa), answered ``Unknown: sofa`` (:func:`hbtp.llm.goal_prompt.refusal_reply`).
-"""
+sofa), answered ``Unknown: sofa`` (:func:`hbtp.llm.goal_prompt.refusal_reply`)."""
 
 from __future__ import annotations
 
@@ -33,13 +42,31 @@ from hbtp.llm.goal_prompt import refusal_reply, taught_goal_prompt, taught_goal_
 from hbtp.logic.atoms import Atom, parse_atom
 from hbtp.logic.execution import apply_actions
 from hbtp.logic.goals import format_goal, parse_goal
+from hbtp.planning.generate import label_goal, relaxed_reachable
+from hbtp.planning.limits import Limits
 from hbtp.train.examples import Example, ExampleKind, goal_key, held_goals
-from hbtp.train.verbalise import Words, verbalise, words_for
+from hbtp.train.verbalise import verbalise
+from hbtp.train.words import Words, words_for
 
 #: The shapes of the instruction goals, with their shares (refusals come on top: :data:`REFUSALS`).
-SHAPES: tuple[tuple[str, float], ...] = (("one", 0.3), ("and", 0.25), ("kept", 0.15), ("or", 0.15), ("not", 0.15))
+SHAPES: tuple[tuple[str, float], ...] = (
+    ("one", 0.2),
+    ("and", 0.15),
+    ("group", 0.15),
+    ("both", 0.1),
+    ("kept", 0.1),
+    ("or", 0.15),
+    ("not", 0.15),
+)
 #: Refusals per instruction example.
-REFUSALS = 0.08
+REFUSALS = 0.12
+#: Instruction examples per labelled goal.
+PER_GOAL = 2
+#: How often a literal about the robot itself (its hands, where it stands) is asked for beside
+#: literals about the world: a walk's end makes several true, people rarely ask for them.
+SELF_KEPT = 0.15
+#: The labelling search's bound for a goal built of several labelled ones (*group*, *both*).
+LABEL_EXPANSIONS = 20_000
 
 _WORD = re.compile(r"[a-z0-9]+")
 
@@ -98,15 +125,83 @@ def _compatible(scenario: Scenario, goal: str, atoms: Sequence[Atom]) -> list[At
     return [atom for atom in atoms if scenario.mutexes.conflict(literals | {task.atom_id(atom)}) is None]
 
 
-def instruction_goal(scenario: Scenario, record: Record, others: Sequence[Record], rng: random.Random) -> str:
+class _Alike:
+    """The atoms a plan may make true (relaxed reachable, not holding at the start), by predicate,
+    to find literals alike a goal's own but for one argument."""
+
+    def __init__(self, scenario: Scenario, words: Words) -> None:
+        task = scenario.task
+        self.scenario, self.words = scenario, words
+        self.by_predicate: dict[str, list[Atom]] = {}
+        for index in sorted(relaxed_reachable(task) - task.initial_state):
+            atom = task.atoms[index]
+            if not atom.negated and parse_atom(atom.underscored) == atom:
+                self.by_predicate.setdefault(atom.predicate, []).append(atom)
+
+    def extend(self, goal: str, rng: random.Random) -> str | None:
+        """``goal`` (conjunctive) with one or two literals alike one of its own but for one argument
+        (not the robot itself), none that the mutexes rule out beside it; ``None`` when there is none."""
+        terms = parse_goal(goal)
+        if len(terms) != 1:
+            return None
+        literal = rng.choice([atom for atom in terms[0] if not atom.negated] or [None])
+        if literal is None:
+            return None
+        positions = [i for i, arg in enumerate(literal.args) if not self.words.noun(arg).agent]
+        if not positions:
+            return None
+        at = rng.choice(positions)
+        same = literal.args[:at] + literal.args[at + 1 :]
+        alike = [a for a in self.by_predicate.get(literal.predicate, []) if a.args[:at] + a.args[at + 1 :] == same]
+        rng.shuffle(alike)
+        task = self.scenario.task
+        ids = {task.atom_id(atom) for atom in terms[0]}
+        added: list[str] = []
+        wanted = rng.randint(1, 2)
+        for atom in alike:
+            if len(added) == wanted:
+                break
+            index = task.atom_id(atom)
+            if index not in ids and self.scenario.mutexes.conflict(ids | {index}) is None:
+                ids.add(index)
+                added.append(atom.underscored)
+        return " & ".join([goal, *added]) if added else None
+
+
+def _about_world(atoms: Sequence[Atom], words: Words) -> list[Atom]:
+    """The ``atoms`` with no argument that is the robot itself."""
+    return [atom for atom in atoms if not any(words.noun(arg).agent for arg in atom.args)]
+
+
+def _solvable(scenario: Scenario, goal: str) -> bool:
+    """Whether the labelling search solves the conjunctive ``goal`` within :data:`LABEL_EXPANSIONS`."""
+    task = scenario.task
+    literals = frozenset(task.atom_id(atom) for atom in parse_goal(goal)[0])
+    proved = scenario.mutexes.proved_only()
+    return label_goal(task, literals, proved, Limits(max_expansions=LABEL_EXPANSIONS)) is not None
+
+
+def instruction_goal(
+    scenario: Scenario, record: Record, others: Sequence[Record], rng: random.Random, alike: _Alike | None = None
+) -> str:
     """A goal of one of the :data:`SHAPES` (drawn by their shares) built on ``record``'s goal."""
     shape = rng.choices([name for name, _ in SHAPES], [share for _, share in SHAPES])[0]
+    alike = alike or _Alike(scenario, words_for(scenario))
     if shape == "one":
         unmet = unmet_literals(scenario, record.goal)
         if unmet:
             return rng.choice(unmet)
+    if shape == "group":
+        grouped = alike.extend(record.goal, rng)
+        if grouped is not None and _solvable(scenario, grouped):
+            return grouped
+    if shape == "both" and others:
+        other = rng.choice(others)
+        both = f"{record.goal} & {other.goal}"
+        if len(parse_goal(both)) == 1 and other.goal != record.goal and _solvable(scenario, both):
+            return format_goal(parse_goal(both))
     if shape == "kept":
-        atoms = _compatible(scenario, record.goal, kept_atoms(scenario, record))
+        atoms = _about_world(_compatible(scenario, record.goal, kept_atoms(scenario, record)), alike.words)
         if atoms:
             return f"{record.goal} & {rng.choice(atoms).underscored}"
     if shape == "or" and others:
@@ -114,11 +209,28 @@ def instruction_goal(scenario: Scenario, record: Record, others: Sequence[Record
         if other.goal != record.goal:
             return f"{record.goal} | {other.goal}"
     if shape == "not":
-        atoms = negatable(scenario, record)
+        atoms = _about_world(negatable(scenario, record), alike.words)
         if atoms:
             negated = "~" + rng.choice(atoms).underscored
             return negated if rng.random() < 0.3 else f"{record.goal} & {negated}"
     return record.goal
+
+
+def about_world(record: Record, words: Words, rng: random.Random) -> Record:
+    """``record`` with each literal about the robot itself (an ``agent`` argument) dropped but for
+    :data:`SELF_KEPT` of them; when the goal is only about the robot, one of them is kept (the same
+    plan reaches what remains)."""
+    literals = record.goal.split(" & ")
+    if "|" in record.goal or len(literals) == 1:
+        return record
+    agent = [any(words.noun(arg).agent for arg in parse_atom(literal).args) for literal in literals]
+    sure = rng.randrange(len(literals)) if all(agent) else -1
+    kept = [
+        literal
+        for index, (literal, own) in enumerate(zip(literals, agent, strict=True))
+        if not own or index == sure or rng.random() < SELF_KEPT
+    ]
+    return replace(record, goal=" & ".join(kept))
 
 
 def foreign_objects(scenario: Scenario, words: Words) -> list[str]:
@@ -163,32 +275,42 @@ def refusal_example(
     return Example(ExampleKind.GOAL, record.goal, taught_goal_prompt(said[0]), refusal_reply(bare))
 
 
-def goal_examples(scenario: Scenario, records: Sequence[Record], seed: int) -> list[Example]:
-    """One instruction example per record (a goal of a drawn shape, said in words, never one of an
-    evaluation set: then the record's own goal), and refusals for about :data:`REFUSALS` of them;
-    the same for the same seed."""
+def goal_examples(scenario: Scenario, records: Sequence[Record], seed: int, per_goal: int = 1) -> list[Example]:
+    """``per_goal`` instruction examples per record (each a goal of a drawn shape, said in words,
+    never one of an evaluation set: then the record's own goal), and refusals for about
+    :data:`REFUSALS` of them; the same for the same seed."""
     rng = random.Random(f"goal-examples|{seed}")
     words = words_for(scenario)
     foreign = foreign_objects(scenario, words)
+    alike = _Alike(scenario, words)
     examples: list[Example] = []
     held = held_goals(scenario)
+    others = [about_world(record, words, rng) for record in records]
     for record in records:
-        goal = instruction_goal(scenario, record, records, rng)
-        if goal_key(goal) in held:  # a part of a labelled goal can be an evaluation goal: never taught
-            goal = record.goal
-        said = verbalise(goal, words, rng, 1)
-        if said:
-            examples.append(Example(ExampleKind.GOAL, goal, taught_goal_prompt(said[0]), taught_goal_reply(goal)))
-        if rng.random() < REFUSALS:
-            refusal = refusal_example(scenario, record, foreign, words, rng)
+        for _ in range(per_goal):
+            asked = about_world(record, words, rng)
+            goal = instruction_goal(scenario, asked, others, rng, alike)
+            if goal_key(goal) in held:  # a part of a labelled goal can be an evaluation goal: never taught
+                goal = record.goal
+            said = verbalise(goal, words, rng, 1)
+            if said:
+                examples.append(Example(ExampleKind.GOAL, goal, taught_goal_prompt(said[0]), taught_goal_reply(goal)))
+        if rng.random() < REFUSALS * per_goal:
+            asked = about_world(record, words, rng)
+            refused = asked if goal_key(asked.goal) not in held else record
+            refusal = refusal_example(scenario, refused, foreign, words, rng)
             if refusal is not None:
                 examples.append(refusal)
     return examples
 
 
 __all__ = [
+    "LABEL_EXPANSIONS",
+    "PER_GOAL",
     "REFUSALS",
+    "SELF_KEPT",
     "SHAPES",
+    "about_world",
     "foreign_objects",
     "goal_examples",
     "instruction_goal",

@@ -28,7 +28,7 @@ from hbtp.llm.backends.adapters import KEY_BASE, KEY_WORLD, PROMPT_FORMAT, world
 from hbtp.llm.backends.local import default_model_sha256, resolve_model_path
 from hbtp.train.adapter_file import write_adapter
 from hbtp.train.evaluate import HeldOutScore, evaluate_in_child
-from hbtp.train.example_set import ExampleSet, make_examples
+from hbtp.train.example_set import EXAMPLES_FORMAT, ExampleSet, make_examples
 from hbtp.train.examples import Example
 from hbtp.train.lora import TrainReport, TrainSettings, train
 
@@ -123,7 +123,7 @@ def _available_memory_mb() -> float | None:
 def _examples(request: TrainRequest, work: Path) -> ExampleSet:
     """The request's examples, read back from ``work`` when the same request made them."""
     asked = [request.source, request.count, request.held_out, request.settings.seed, request.instructions]
-    key = hashlib.sha256(json.dumps([*asked, PROMPT_FORMAT], sort_keys=True).encode()).hexdigest()
+    key = hashlib.sha256(json.dumps([*asked, PROMPT_FORMAT, EXAMPLES_FORMAT], sort_keys=True).encode()).hexdigest()
     stored = work / "examples.json"
     if stored.is_file():
         data = json.loads(read_text(stored, InputKind.DATASET))

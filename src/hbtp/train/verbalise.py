@@ -4,13 +4,10 @@ A taught model learns to turn a person's instruction ("put the milk in the fridg
 into a goal in hbtp's syntax (``IsIn_milk_fridge & IsClose_fridge``). The goals come from the
 planner (always solvable); :func:`verbalise` writes several different instructions for each.
 
-What is said about a world lives in ``domains/data/words.toml`` (one home per fact): per predicate,
-imperatives that make a literal true (``say``), the literal as a fact (``state``: "{0} is in {1}")
-and negative imperatives for the negated literal (``deny``); per object, its names and synonyms.
-Anything the file does not cover is derived from the PDDL name (``IsSwitchedOn`` -> "is switched
-on", ``Table1`` -> "table 1", "table one", "the first table"), so any ``--pddl`` world gets
-instructions. Only generic English glue lives here: the frames that turn a fact into "make sure
-... is ...", "... should be ...", "I want ...", "could you ...", "either ... or ...".
+The words of a world (how each predicate and object is said) come from :mod:`hbtp.train.words`.
+Only generic English glue lives here: the frames that turn a fact into "make sure ... is ...",
+"... should be ...", "I want ...", "could you ...", "either ... or ...", and lists ("put the pear
+and the apple on the table" for literals alike but for one argument).
 
 A negated literal is always said as a negation ("don't leave the fridge open", "make sure the
 fridge is not open"), never as the opposite predicate: ``~IsOpen_fridge`` is not ``IsClose_fridge``.
@@ -20,39 +17,24 @@ every object of its goal (the robot itself, the ``agent``, is "you").
 
 from __future__ import annotations
 
-import functools
 import logging
 import random
 import re
-import tomllib
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
-from importlib import resources
-from typing import Any, NamedTuple
+from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
-from hbtp.domains import Scenario
-from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import Term, parse_goal
+from hbtp.train.words import COPULA, SLOT, Noun, Words
 
 log = logging.getLogger(__name__)
 
-#: A negation in a phrasing of a negated literal (each ``deny`` template holds one).
-NEGATION = re.compile(r"\b(?:not|never|no|nothing)\b|n't", re.IGNORECASE)
 #: Candidate instructions drawn per instruction asked for before settling for fewer.
 ATTEMPTS = 40
+#: How often literals alike but for one argument are said once, with a list (:func:`groups`).
+GROUPED = 0.8
 
-_COPULA = re.compile(r"^(.+?) (is|are) (.+)$")
-_SLOT = re.compile(r"\{(S?)(\d)\}")
-_WORD = re.compile(r"[A-Z]+(?=[A-Z][a-z])|[A-Z]?[a-z]+|[A-Z]+|[0-9]+")
-_NUMBERED = re.compile(r"(.*?[A-Za-z])[_\-]?([0-9]+)")
-_NUMBERS = ("zero", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine", "ten", "eleven", "twelve",
-            "thirteen", "fourteen", "fifteen", "sixteen", "seventeen", "eighteen", "nineteen", "twenty")  # fmt: skip
-_ORDINALS = ("zeroth", "first", "second", "third", "fourth", "fifth", "sixth", "seventh", "eighth", "ninth", "tenth",
-             "eleventh", "twelfth", "thirteenth", "fourteenth", "fifteenth", "sixteenth", "seventeenth", "eighteenth",
-             "nineteenth", "twentieth")  # fmt: skip
-_DETERMINERS = frozenset(("the", "a", "an", "my", "your", "our", "his", "her", "their", "this", "that", "these",
-                          "those", "some"))  # fmt: skip
 
 # What an instruction's pieces are, which decides the frames around them.
 DO = "do"  # a positive imperative: "put the milk in the fridge" (takes "could you ...")
@@ -97,233 +79,11 @@ _EITHER = (*_EITHER_CLEAR, "either {a} or {b}", "{a} or {b}", "{a} or, failing t
 _STYLES = ("do", "polite", "state", "want", "mixed")
 
 
-@dataclass(frozen=True)
-class Phrasing:
-    """How a literal is said: imperatives making it true (``say``), facts "SUBJECT is COMPLEMENT"
-    (``state``, at least one) and negative imperatives for its negation (``deny``); ``{0}``, ``{1}``
-    are the arguments. ``derived``: made up from the PDDL name, not read from the data."""
-
-    say: tuple[str, ...]
-    state: tuple[str, ...]
-    deny: tuple[str, ...] = ()
-    derived: bool = False
-
-    def fits(self, arity: int) -> bool:
-        """Whether every placeholder names one of ``arity`` arguments."""
-        slots = [int(m.group(2)) for text in (*self.say, *self.state, *self.deny) for m in _SLOT.finditer(text)]
-        return all(slot < arity for slot in slots)
-
-
-@dataclass(frozen=True)
-class ObjectEntry:
-    """An object's entry in the data: bare names (no article), whether they are plural, whether they
-    take "the", and whether the object is the robot itself (said "you", never checked as named)."""
-
-    names: tuple[str, ...]
-    plural: bool = False
-    article: bool = True
-    agent: bool = False
-
-
-@dataclass(frozen=True)
-class Noun:
-    """An object as said in a sentence: noun phrases ("the fridge", "table 1"), first the display
-    name, then synonyms; its number; whether it is the robot itself; whether it was derived."""
-
-    names: tuple[str, ...]
-    plural: bool = False
-    agent: bool = False
-    derived: bool = False
-
-
-@dataclass(frozen=True)
-class WordsData:
-    """The words file read: phrasings per predicate and per ground literal (``Pred_a_b``, positive),
-    object entries keyed by lower-case name."""
-
-    predicates: Mapping[str, Phrasing]
-    literals: Mapping[str, Phrasing]
-    objects: Mapping[str, ObjectEntry]
-
-
-@dataclass(frozen=True, eq=False)
-class Words:
-    """The phrasings and nouns of one world (see :func:`words_for`); names it does not know are
-    derived on the fly."""
-
-    predicates: Mapping[str, Phrasing]
-    objects: Mapping[str, Noun]
-    literals: Mapping[str, Phrasing] = field(default_factory=dict)
-    data: WordsData | None = None
-
-    def phrasing(self, atom: Atom) -> Phrasing:
-        """How ``atom`` (either sign) is said: its literal's own phrasing, else its predicate's."""
-        own = self.literals.get(atom.positive.underscored)
-        if own is not None and own.fits(len(atom.args)):
-            return own
-        known = self.predicates.get(atom.predicate)
-        if known is not None and known.fits(len(atom.args)):
-            return known
-        return phrasing_of(atom.predicate, len(atom.args), self.data)
-
-    def noun(self, name: str) -> Noun:
-        """How the object ``name`` is said."""
-        return self.objects.get(name) or noun_of(name, self.data)
-
-
 class InstructionExample(NamedTuple):
     """An instruction and the goal it asks for."""
 
     instruction: str
     goal: str
-
-
-# ------------------------------------------------------------------ the data
-
-
-def parse_words(raw: Mapping[str, Any], source: str = "words.toml") -> WordsData:
-    """The words file's tables read and checked (:class:`InputError` naming the faulty entry)."""
-    predicates = {name: _read_phrasing(f"{source}: predicates.{name}", value)
-                  for name, value in _section(raw, "predicates", source).items()}  # fmt: skip
-    literals = {name: _read_phrasing(f"{source}: literals.{name}", value)
-                for name, value in _section(raw, "literals", source).items()}  # fmt: skip
-    objects: dict[str, ObjectEntry] = {}
-    for name, value in _section(raw, "objects", source).items():
-        if name.lower() in objects:
-            raise InputError(f"{source}: objects.{name}: listed twice (object names match case-insensitively)")
-        objects[name.lower()] = _read_entry(f"{source}: objects.{name}", value)
-    return WordsData(predicates, literals, objects)
-
-
-@functools.lru_cache(maxsize=1)
-def shipped_words() -> WordsData:
-    """The shipped ``domains/data/words.toml``, read once."""
-    text = resources.files("hbtp.domains").joinpath("data", "words.toml").read_text(encoding="utf-8")
-    return parse_words(tomllib.loads(text))
-
-
-def _section(raw: Mapping[str, Any], name: str, source: str) -> Mapping[str, Any]:
-    """The table ``[name]`` of the file (empty when absent)."""
-    value = raw.get(name, {})
-    if not isinstance(value, dict):
-        raise InputError(f"{source}: [{name}] must be a table")
-    return value
-
-
-def _strings(where: str, value: Any) -> tuple[str, ...]:
-    """``value`` as a tuple of non-empty strings, stripped; :class:`InputError` naming ``where`` else."""
-    if not isinstance(value, list) or not all(isinstance(item, str) and item.strip() for item in value):
-        raise InputError(f"{where}: expected a list of non-empty strings")
-    return tuple(item.strip() for item in value)
-
-
-def _read_phrasing(where: str, value: Any) -> Phrasing:
-    """A predicate's (or literal's) table, checked: facts are "SUBJECT is COMPLEMENT" (the glue
-    frames need the copula) and every ``deny`` holds a negation (never the opposite predicate)."""
-    if not isinstance(value, dict) or not set(value) <= {"say", "state", "deny"}:
-        raise InputError(f"{where}: expected a table of say, state and deny")
-    say, state, deny = (_strings(f"{where}.{key}", value.get(key, [])) for key in ("say", "state", "deny"))
-    if not state:
-        raise InputError(f'{where}: needs at least one state ("{{0}} is ...")')
-    for text in state:
-        if not _COPULA.match(text):
-            raise InputError(f"{where}.state: {text!r} is not 'SUBJECT is COMPLEMENT'")
-    for text in deny:
-        if not NEGATION.search(text):
-            raise InputError(f"{where}.deny: {text!r} holds no negation (not, n't, never, no)")
-    return Phrasing(say, state, deny)
-
-
-def _read_entry(where: str, value: Any) -> ObjectEntry:
-    """An object's entry: a list of names, or a table of names and flags (article defaults to true)."""
-    if isinstance(value, list):
-        value = {"names": value}
-    if not isinstance(value, dict) or not set(value) <= {"names", "plural", "article", "agent"}:
-        raise InputError(f"{where}: expected a list of names or a table of names, plural, article and agent")
-    names = _strings(f"{where}.names", value.get("names", []))
-    flags = {key: value.get(key, key == "article") for key in ("plural", "article", "agent")}
-    if not names or not all(isinstance(flag, bool) for flag in flags.values()):
-        raise InputError(f"{where}: needs names, and plural/article/agent must be true or false")
-    return ObjectEntry(names, flags["plural"], flags["article"], flags["agent"])
-
-
-# ------------------------------------------------------------------ derived from the PDDL names
-
-
-def split_name(name: str) -> list[str]:
-    """The words of a PDDL name: ``IsSwitchedOn`` -> is, switched, on; ``NFCJuice`` -> NFC, juice;
-    ``in-room_2`` -> in, room, 2 (acronyms keep their capitals; one run of lower case stays one word)."""
-    pieces = [piece for chunk in re.split(r"[_\-\s]+", name) for piece in _WORD.findall(chunk)]
-    return [piece if piece.isupper() and len(piece) > 1 else piece.lower() for piece in pieces]
-
-
-def phrasing_of(predicate: str, arity: int, data: WordsData | None = None) -> Phrasing:
-    """How ``predicate`` with ``arity`` arguments is said: the data's phrasing when it has one that
-    fits, else one derived from the name ("{0} is switched on")."""
-    known = (data or shipped_words()).predicates.get(predicate)
-    if known is not None and known.fits(arity):
-        return known
-    words = split_name(predicate) or [predicate]
-    verb_first = words[0] in ("is", "are") and len(words) > 1
-    relation = " ".join(words[1:] if verb_first else words)
-    if arity == 0:
-        state = f"it is {relation}" if verb_first else relation if " is " in relation else f"{relation} is true"
-    else:
-        rest = " and ".join(f"{{{k}}}" for k in range(1, arity))
-        state = f"{{0}} is {relation}" + (f" {rest}" if rest else "")
-    return Phrasing((), (state,), (), derived=True)
-
-
-def _with_article(name: str, article: bool) -> str:
-    """``name`` as said in a sentence: "the fridge", but "table 1", "table one", "the first table"."""
-    first, last = name.split()[0].lower(), name.split()[-1].lower()
-    if not article or first in _DETERMINERS or last.isdigit() or last in _NUMBERS:
-        return name
-    return f"the {name}"
-
-
-def _numbered(stems: Sequence[str], number: int) -> list[str]:
-    """Names of the ``number``-th of a kind: "table 1", "table one", "the first table"."""
-    names: list[str] = []
-    for stem in stems:
-        names.append(f"{stem} {number}")
-        if number < len(_NUMBERS):
-            names += [f"{stem} {_NUMBERS[number]}", f"the {_ORDINALS[number]} {stem}"]
-    return list(dict.fromkeys(names))
-
-
-def noun_of(name: str, data: WordsData | None = None) -> Noun:
-    """How the object ``name`` is said: its data entry; for a numbered object without one (``Table1``)
-    its stem's entry (``Table``) with the number; else names derived from ``name``."""
-    objects = (data or shipped_words()).objects
-    entry = objects.get(name.lower())
-    if entry is not None:
-        names = tuple(_with_article(bare, entry.article) for bare in entry.names)
-        return Noun(tuple(dict.fromkeys(names)), entry.plural, entry.agent)
-    match = _NUMBERED.fullmatch(name)
-    if match:
-        stem = objects.get(match.group(1).lower())
-        stems = stem.names if stem is not None else (" ".join(split_name(match.group(1))),)
-        return Noun(tuple(_numbered(stems, int(match.group(2)))), derived=stem is None)
-    return Noun((_with_article(" ".join(split_name(name)) or name, True),), derived=True)
-
-
-def words_from(predicates: Mapping[str, int], objects: Iterable[str], data: WordsData | None = None) -> Words:
-    """The words of a world with these predicates (name -> arity) and objects."""
-    data = data or shipped_words()
-    return Words(
-        {name: phrasing_of(name, arity, data) for name, arity in predicates.items()},
-        {name: noun_of(name, data) for name in objects},
-        dict(data.literals),
-        data,
-    )
-
-
-def words_for(scenario: Scenario) -> Words:
-    """The words of ``scenario``: every predicate, object and constant of its task, from the shipped
-    data where it has them, else derived from the PDDL names."""
-    task = scenario.task
-    return words_from(task.predicates, (*task.objects, *task.constants))
 
 
 # ------------------------------------------------------------------ the forms of a literal
@@ -353,7 +113,7 @@ def _forms(atom: Atom, words: Words) -> _Forms:
 
 def _state_forms(text: str, atom: Atom, words: Words, out: dict[str, list[str]]) -> None:
     """The glue frames around the fact ``text`` ("{0} is open"), with the verbs agreeing."""
-    match = _COPULA.match(text)
+    match = COPULA.match(text)
     if match is None:  # checked when read; a derived fact always matches
         return
     subject, copula, complement = match.groups()
@@ -461,7 +221,7 @@ class _Speaker:
             named.append(name)
             return said
 
-        said = _SLOT.sub(slot, text)
+        said = SLOT.sub(slot, text)
         things = [name for name in named if not self.words.noun(name).agent]
         self.last = things[-1] if things else None
         return said
@@ -475,10 +235,27 @@ class _Speaker:
         pool = own if own and (not glue or self.rng.random() < 0.7) else glue
         return self.fill(self.rng.choice(pool), atom.args), kind
 
+    def group(self, atoms: Sequence[Atom], position: int) -> Atom:
+        """``atoms`` (alike but for the argument at ``position``) as one atom whose argument there is
+        a made-up object said as their list: "the pear, the bananas and the apple"."""
+        key = f"\x00{len(self.words.objects)}"  # no object has such a name
+        said = [self.mention(atom.args[position], subject=False, again=True) for atom in atoms]
+        listed = f"{', '.join(said[:-1])} and {said[-1]}"
+        self.words = replace(self.words, objects={**self.words.objects, key: Noun((listed,), plural=True)})
+        first = atoms[0]
+        return Atom(first.predicate, (*first.args[:position], key, *first.args[position + 1 :]), first.negated)
+
     def conjunction(self, term: Term, style: str, top: bool) -> tuple[str, str]:
-        """One disjunct, its literals in a random order, each said in ``style``; and its kind."""
-        order = list(term)
+        """One disjunct, its literals in a random order, each said in ``style``; and its kind.
+        Literals alike but for one argument are often said once, with that argument a list
+        (:func:`groups`)."""
+        order: list[Atom] = list(term)
         self.rng.shuffle(order)
+        for atoms, position in groups(order, self.words):
+            if self.rng.random() < GROUPED:
+                at = order.index(atoms[0])
+                order = [atom for atom in order if atom not in atoms]
+                order.insert(at, self.group(atoms, position))
         if style == "want":
             kinds: tuple[str, ...] = (self.want,)
         else:
@@ -519,6 +296,26 @@ class _Speaker:
         return text
 
 
+def groups(atoms: Sequence[Atom], words: Words) -> list[tuple[list[Atom], int]]:
+    """The literals of one conjunction that are alike but for one argument (same predicate, same sign,
+    the same other arguments: ``IsOn_pear_table & IsOn_apple_table``), at least two, in their order,
+    with that argument's position; each literal in at most one group, the robot itself never listed."""
+    found: list[tuple[list[Atom], int]] = []
+    used: set[Atom] = set()
+    for position in range(max((len(atom.args) for atom in atoms), default=0)):
+        alike: dict[tuple[object, ...], list[Atom]] = {}
+        for atom in atoms:
+            if atom in used or position >= len(atom.args) or words.noun(atom.args[position]).agent:
+                continue
+            rest = (atom.predicate, atom.negated, *atom.args[:position], *atom.args[position + 1 :])
+            alike.setdefault(rest, []).append(atom)
+        for members in alike.values():
+            if len(members) > 1:
+                found.append((members, position))
+                used.update(members)
+    return found
+
+
 def _key(text: str) -> str:
     """What two instructions must differ in to count as different: not case, spaces or the end mark."""
     return " ".join(text.lower().rstrip(".?!").split())
@@ -552,20 +349,10 @@ def instruction_examples(
 
 
 __all__ = [
-    "NEGATION",
+    "ATTEMPTS",
+    "GROUPED",
     "InstructionExample",
-    "Noun",
-    "ObjectEntry",
-    "Phrasing",
-    "Words",
-    "WordsData",
+    "groups",
     "instruction_examples",
-    "noun_of",
-    "parse_words",
-    "phrasing_of",
-    "shipped_words",
-    "split_name",
     "verbalise",
-    "words_for",
-    "words_from",
 ]
