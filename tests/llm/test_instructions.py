@@ -31,7 +31,7 @@ from hbtp.llm.goal_prompt import (
     similar_examples,
 )
 from hbtp.logic.goals import parse_goal
-from hbtp.pipeline.instruct import InstructOptions, check_goal, goal_from_instruction, instruction_pool
+from hbtp.pipeline.instruct import InstructOptions, check_goal, false_refusal, goal_from_instruction, instruction_pool
 
 
 @pytest.fixture(scope="module")
@@ -393,3 +393,37 @@ def test_a_taught_refusal_is_the_error(virtualhome: Scenario) -> None:
     assert choice.goal is None
     assert choice.message == "the instruction names piano, which 'virtualhome' does not have"
     assert len(backend.requests) == 1
+
+
+@pytest.mark.parametrize(
+    ("instruction", "refused", "why"),
+    [
+        ("put the carton of milk in the fridge", "milk", "which 'virtualhome' has (milk)"),  # a name of the world's
+        ("put the chips on the desk", "chips", "which 'virtualhome' has (chips)"),
+        ("store the milk in the refrigerator", "fridge", "which the instruction does not say"),
+        ("put the milk in the piano", "grand piano", "which the instruction does not say"),
+    ],
+)
+def test_a_taught_refusal_that_cannot_stand_is_overruled(
+    virtualhome: Scenario, instruction: str, refused: str, why: str
+) -> None:
+    """A refusal must name what the instruction says and the world lacks: otherwise the model is
+    asked again, refusals no longer offered, and its goal is used."""
+    backend = Taught([f"Unknown: {refused}", "IsIn_milk_fridge"])
+    choice = goal_from_instruction(virtualhome, instruction, backend)
+    assert choice.goal == "IsIn_milk_fridge"
+    assert choice.attempts[0].objections == (f"refused {refused!r}, {why}",)
+    first, second = backend.requests
+    assert first.constraint is not None
+    assert second.constraint is not None
+    assert '"Unknown: "' in first.constraint.gbnf
+    assert '"Unknown: "' not in second.constraint.gbnf
+
+
+def test_false_refusal_knows_the_last_word_of_a_name(virtualhome: Scenario) -> None:
+    """The syrup is the chocolate syrup; a thing the instruction says and no name of the world ends
+    with may be refused ("milk piano" is no name, though each of its words is said)."""
+    assert false_refusal(virtualhome, "put the syrup in the fridge", "syrup") is not None
+    assert false_refusal(virtualhome, "put the piano in the fridge", "piano") is None
+    assert false_refusal(virtualhome, "put the grand piano in the fridge", "grand piano") is None
+    assert false_refusal(virtualhome, "put the milk in the piano", "milk piano") is None

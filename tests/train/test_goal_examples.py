@@ -8,6 +8,7 @@ import random
 import pytest
 
 from hbtp.domains import Scenario
+from hbtp.domains.words import words_for
 from hbtp.llm.goal_prompt import refusal_of, taught_goal_prompt
 from hbtp.logic.atoms import Atom
 from hbtp.logic.execution import apply_actions
@@ -24,7 +25,6 @@ from hbtp.train.goal_examples import (
     negatable,
     unmet_literals,
 )
-from hbtp.train.words import words_for
 
 
 @pytest.fixture(scope="module")

@@ -11,12 +11,12 @@ from pathlib import Path
 import pytest
 
 from hbtp.domains import Scenario, load_pddl_scenario, load_scenario
+from hbtp.domains.words import NEGATION, Words, noun_of, parse_words, shipped_words, split_name, words_for
 from hbtp.errors import InputError
 from hbtp.logic.atoms import parse_atom
 from hbtp.logic.goals import parse_goal
 from hbtp.planning.generate import Sampling, generate_records
 from hbtp.train.verbalise import groups, instruction_examples, verbalise
-from hbtp.train.words import NEGATION, Words, noun_of, parse_words, shipped_words, split_name, words_for
 
 GOALS = {
     "virtualhome": [

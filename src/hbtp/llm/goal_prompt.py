@@ -340,11 +340,13 @@ def goal_request(
     round_number: int = 0,
     seed: int = 0,
     taught: bool = False,
+    refusal: bool = True,
 ) -> Request:
     """The request asking for the goal of ``instruction`` (see the module docstring); ``taught``:
-    of a model taught the world (the instruction alone, every literal offered, a refusal allowed)."""
+    of a model taught the world (the instruction alone, every literal offered, a refusal allowed
+    unless ``refusal`` is false)."""
     if taught:
-        return _taught_goal_request(task, instruction, rejected, constrain, round_number, seed)
+        return _taught_goal_request(task, instruction, rejected, constrain, round_number, seed, refusal)
     shots = "".join(f"Instruction: {e.instruction}\nGoals: {e.goal}\n\n" for e in examples)
     refused = "".join(f"Not: {r.goal} ({r.reason})\n" for r in rejected)
     completion = f"{SYNTAX}\n\n{shots}Instruction: {instruction.strip()}\n{refused}Goals:"
@@ -375,7 +377,13 @@ def goal_request(
 
 
 def _taught_goal_request(
-    task: GroundTask, instruction: str, rejected: Sequence[Rejected], constrain: bool, round_number: int, seed: int
+    task: GroundTask,
+    instruction: str,
+    rejected: Sequence[Rejected],
+    constrain: bool,
+    round_number: int,
+    seed: int,
+    refusal: bool = True,
 ) -> Request:
     """The request of a taught model: its prompt is the instruction alone (the feedback of a
     rejected answer is the grammar, without the literals that can never hold, and sampling)."""
@@ -383,7 +391,7 @@ def _taught_goal_request(
     not_negated = [a.positive for r in rejected for a in r.never if a.negated]
     offered = [a for a in _fluent_atoms(task) if a not in banned]
     constraint = (
-        goal_constraint(offered, task.categories, Connectives(), not_negated, refusal=True) if constrain else None
+        goal_constraint(offered, task.categories, Connectives(), not_negated, refusal=refusal) if constrain else None
     )
     text = " ".join(instruction.split())
     return Request(

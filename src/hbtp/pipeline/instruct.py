@@ -13,7 +13,9 @@ A refused goal goes back to the model with the reason (the blacklist of LLM-OBTE
 reasons are the error. A doubtful goal ends the asking and is refused: the instruction asks for
 what already holds (a goal asked for again would only drift from what was meant). A model taught
 the world may refuse itself: an instruction that names what the world lacks is answered with what
-it lacks (:func:`hbtp.llm.goal_prompt.refusal_of`), and that is the error. A completion-style model's
+it lacks (:func:`hbtp.llm.goal_prompt.refusal_of`), and that is the error, unless the refusal
+cannot stand (:func:`false_refusal`: the instruction does not say the thing, or the world has an
+object called so), when the model is asked again with refusals not offered. A completion-style model's
 accepted conjunction is then extended with a literal for each object the instruction names and the
 goal leaves out (asked as a continuation of its own goal; a literal that draws an objection is
 dropped). An instruction that names no object of the domain and shares no word with a known
@@ -24,6 +26,7 @@ goal).
 from __future__ import annotations
 
 import logging
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import partial
@@ -32,6 +35,7 @@ from typing import Any
 from hbtp.datasets.instructions import load_instructions
 from hbtp.deadline import Deadline, expired
 from hbtp.domains.scenarios import Scenario
+from hbtp.domains.words import words_for
 from hbtp.errors import BackendTimeLimit, InputError
 from hbtp.llm.backend import Backend, PromptStyle, Request
 from hbtp.llm.goal_prompt import (
@@ -124,6 +128,8 @@ class Verdict:
     objections: tuple[str, ...] = ()
     doubtful: bool = False
     never: tuple[Atom, ...] = field(default=())
+    #: A taught model's refusal that stands (the instruction names what the world lacks).
+    refused: bool = False
 
 
 def check_goal(scenario: Scenario, text: str) -> Verdict:
@@ -201,20 +207,53 @@ def goal_from_instruction(
         spent += reply.seconds
         proposed = goal_reply(reply.text)
         lacking = refusal_of(proposed) if taught else None
-        if lacking is not None:
-            attempts.append(GoalAttempt(number, reply.text, "", (f"names {lacking}",), False, reply.seconds))
+        verdict = _verdict(scenario, text, proposed, lacking)
+        attempts.append(GoalAttempt(number, reply.text, "" if lacking else proposed, verdict.objections,
+                                    verdict.doubtful, reply.seconds))  # fmt: skip
+        log.info("instruction round %d: %r -> %s", number, proposed, "; ".join(verdict.objections) or "accepted")
+        if lacking is not None and verdict.refused:
             message = f"the instruction names {lacking}, which {scenario.name!r} does not have"
             return GoalChoice(text, None, tuple(attempts), spent, message)
-        verdict = check_goal(scenario, proposed) if proposed else Verdict(("no goal in the reply",))
-        attempts.append(GoalAttempt(number, reply.text, proposed, verdict.objections, verdict.doubtful, reply.seconds))
-        log.info("instruction round %d: %r -> %s", number, proposed, "; ".join(verdict.objections) or "accepted")
         if not verdict.objections or verdict.doubtful:
             break
         rejected.append(Rejected(proposed or reply.text.strip()[:80], "; ".join(verdict.objections), verdict.never))
+        if lacking is not None:  # a refusal overruled: refusals are not offered again
+            ask = partial(ask, refusal=False)
     cover = options.cover and not taught and backend.prompt_style is PromptStyle.COMPLETION
     if cover and attempts and attempts[-1].accepted:
         spent += _cover(scenario, text, backend, request, attempts, deadline)
     return _choose(text, attempts, spent)
+
+
+def _verdict(scenario: Scenario, text: str, proposed: str, lacking: str | None) -> Verdict:
+    """The checks' verdict on a proposed goal, or on a refusal of ``lacking`` (``refused`` when it
+    stands; else its objection, :func:`false_refusal`)."""
+    if lacking is not None:
+        overruled = false_refusal(scenario, text, lacking)
+        return Verdict((f"names {lacking}",), refused=True) if overruled is None else Verdict((overruled,))
+    return check_goal(scenario, proposed) if proposed else Verdict(("no goal in the reply",))
+
+
+def false_refusal(scenario: Scenario, text: str, lacking: str) -> str | None:
+    """Why a taught model's refusal of ``lacking`` cannot stand, or ``None`` when it may: the
+    instruction must say the thing (each of its words), and the world must have no object called so
+    (a name of its words, :mod:`hbtp.domains.words`, or the last word of one: "bottle" for the
+    condiment bottle)."""
+    said = set(_words(text))
+    wanted = _words(lacking)
+    if not wanted or not set(wanted) <= said:
+        return f"refused {lacking!r}, which the instruction does not say"
+    for name, noun in sorted(words_for(scenario).objects.items()):
+        for spoken in () if noun.agent else noun.names:
+            words = _words(spoken)
+            if words and (wanted == words or wanted == words[-1:]):
+                return f"refused {lacking!r}, which {scenario.name!r} has ({name})"
+    return None
+
+
+def _words(text: str) -> list[str]:
+    """The lower-case words of ``text``, articles left out."""
+    return [word for word in re.findall(r"[a-z0-9]+", text.lower()) if word not in ("the", "a", "an")]
 
 
 def _cover(
@@ -287,6 +326,7 @@ __all__ = [
     "InstructOptions",
     "Verdict",
     "check_goal",
+    "false_refusal",
     "goal_from_instruction",
     "instruction_pool",
 ]

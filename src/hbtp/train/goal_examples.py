@@ -37,6 +37,7 @@ from dataclasses import replace
 
 from hbtp.datasets.records import Record
 from hbtp.domains import Scenario
+from hbtp.domains.words import Words, words_for
 from hbtp.errors import InputError
 from hbtp.llm.goal_prompt import refusal_reply, taught_goal_prompt, taught_goal_reply
 from hbtp.logic.atoms import Atom, parse_atom
@@ -46,7 +47,6 @@ from hbtp.planning.generate import label_goal, relaxed_reachable
 from hbtp.planning.limits import Limits
 from hbtp.train.examples import Example, ExampleKind, goal_key, held_goals
 from hbtp.train.verbalise import verbalise
-from hbtp.train.words import Words, words_for
 
 #: The shapes of the instruction goals, with their shares (refusals come on top: :data:`REFUSALS`).
 SHAPES: tuple[tuple[str, float], ...] = (

@@ -4,7 +4,7 @@ A taught model learns to turn a person's instruction ("put the milk in the fridg
 into a goal in hbtp's syntax (``IsIn_milk_fridge & IsClose_fridge``). The goals come from the
 planner (always solvable); :func:`verbalise` writes several different instructions for each.
 
-The words of a world (how each predicate and object is said) come from :mod:`hbtp.train.words`.
+The words of a world (how each predicate and object is said) come from :mod:`hbtp.domains.words`.
 Only generic English glue lives here: the frames that turn a fact into "make sure ... is ...",
 "... should be ...", "I want ...", "could you ...", "either ... or ...", and lists ("put the pear
 and the apple on the table" for literals alike but for one argument).
@@ -24,9 +24,9 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
+from hbtp.domains.words import COPULA, SLOT, Noun, Words
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import Term, parse_goal
-from hbtp.train.words import COPULA, SLOT, Noun, Words
 
 log = logging.getLogger(__name__)
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from importlib import resources
 from typing import Any
 
-from hbtp.domains import Scenario
+from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
 
