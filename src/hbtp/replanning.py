@@ -291,11 +291,7 @@ class Replanner:
         mutexes = self.mutexes if self.mutexes.conflict(frozenset(state)) is None else None
         config = planner_config(self.options.planner, heuristic=self.options.heuristic)
         if self.options.hints is not None:
-            # widened by the objects of every atom the state changed from the start state: the hints
-            # did not foresee a disturbance (a thing moved, an appliance switched off)
-            changed = frozenset(state) ^ self.task.initial_state
-            pruned_space = self.kept.pruned_space(self.task, self.options.hints)
-            space = pruned_space.actions(obj for index in changed for obj in self.task.atoms[index].args)
+            space = self.kept.pruned_space(self.task, self.options.hints).around(state)
             limits = Limits(time_s=seconds, max_expansions=PRUNED_EXPANSIONS)
             pruned = [world.actions[i] for i in space if i not in self.excluded]
             result = confirmed_search(world, goal, pruned, config, mutexes=mutexes, limits=limits)

@@ -265,9 +265,10 @@ def test_a_long_repair_gives_way_to_a_search_with_symmetry_pruning(monkeypatch: 
 
 def test_a_replan_with_hints_searches_their_space_widened_by_what_changed(robothow_small: Scenario) -> None:
     """With the hints the tree was planned with, a re-plan answers from their pruned space widened by
-    the objects of the atoms the state changed: at the cost of a fresh OBTEA search of that space,
-    its tree reaching the goal from the state; where that space holds no tree, from the full space at
-    the optimal cost. The pruned answer is checked against the full space's optimum (never below)."""
+    the objects of the atoms the state changed and the predicates of the actions that undo a change:
+    at the cost of a fresh OBTEA search of that space, its tree reaching the goal from the state;
+    where that space holds no tree, from the full space at the optimal cost. The pruned answer is
+    checked against the full space's optimum (never below)."""
     task, mutexes = robothow_small.task, robothow_small.mutexes.proved_only()
     goal = task.resolve_goal("IsIn_apple_fridge & IsClose_fridge")
     hints = hints_from_names(
@@ -278,8 +279,10 @@ def test_a_replan_with_hints_searches_their_space_widened_by_what_changed(roboth
     spaces = []
     for state in disturbed_states(robothow_small, goal):
         world = task.from_state(state)
-        changed = {obj for index in state ^ task.initial_state for obj in task.atoms[index].args}
-        widened = hints_from_names(hints.path, hints.predicates, [*hints.objects, *changed])
+        gained, lost = state - task.initial_state, task.initial_state - state
+        changed = {obj for index in gained | lost for obj in task.atoms[index].args}
+        undo = {a.predicate for a in task.actions if a.delete & gained or a.add & lost}
+        widened = hints_from_names(hints.path, [*hints.predicates, *undo], [*hints.objects, *changed])
         pruned = plan(world, goal, config, hints=widened, space=Space.PRUNED, mutexes=mutexes)
         optimum = replanning.full_space_cost(robothow_small, goal, state)
         assert policy.replan(state, "test")
@@ -307,10 +310,40 @@ def test_a_pruned_space_widens_by_objects_as_a_pass_over_every_action_does(robot
     rng = random.Random(3)
     for _ in range(20):
         more = set(rng.sample(sorted(task.objects), 4))
-        wide = dataclasses.replace(hints, objects=hints.objects | more)
+        others = set(rng.sample(sorted(task.action_predicates), 2))
+        wide = dataclasses.replace(hints, objects=hints.objects | more, predicates=hints.predicates | others)
         slow = tuple(
             a.index
             for a in task.actions
             if a.predicate in wide.predicates and all(o in wide.objects for o in a.objects)
         )
-        assert space.actions(more) == slow
+        assert space.actions(more, others) == slow
+
+
+def test_a_replan_puts_down_what_a_disturbance_put_in_a_hand(robothow_small: Scenario) -> None:
+    """A disturbance puts the cutlets in the hand the hints' plan uses. The hints' space widened by
+    the objects alone frees the hand the long way (into the fridge, opened for the apple anyway);
+    widened by the predicates that undo the change too (``RightPut``), it puts them down on the bed
+    (an object of the hints): cheaper, if not the full space's optimum (the left hand, which the
+    hints never use)."""
+    task, mutexes = robothow_small.task, robothow_small.mutexes
+    goal = task.resolve_goal("IsIn_apple_fridge & IsClose_fridge")
+    predicates = ["Walk", "RightGrab", "PlugIn", "Open", "RightPutIn", "Close"]
+    hints = hints_from_names(predicates=predicates, objects=["apple", "fridge", "bed"])
+    empty = task.initial_state - {task.atom_id("IsRightHandEmpty_self")}
+    state = empty | {task.atom_id("IsRightHolding_self_cutlets"), task.atom_id("IsRightHandFull_self")}
+    assert mutexes.proved_only().conflict(state) is None
+    policy = Replanner(robothow_small, goal, None, ReplanOptions(hints=hints))
+    assert policy.replan(state, "test")
+    replan = policy.replans[-1]
+    optimum = replanning.full_space_cost(robothow_small, goal, state)
+    assert replan.space is Space.PRUNED
+    assert replan.tree is not None
+    world = task.from_state(state)
+    assert run_tree(replan.tree, world, state, 1000).reached
+    objects_only = hints_from_names(predicates=predicates, objects=["apple", "fridge", "bed", "cutlets", "self"])
+    longer = plan(world, goal, "obtea", hints=objects_only, space=Space.PRUNED, mutexes=mutexes)
+    assert optimum is not None
+    assert replan.cost is not None
+    assert longer.cost is not None
+    assert optimum <= replan.cost < longer.cost, (optimum, replan.cost, longer.cost)

@@ -119,29 +119,50 @@ def resolve_hints(task: GroundTask, hints: Hints) -> ResolvedHints:
 
 class PrunedSpace:
     """The pruned action space of some hints, A⁻ = (Q⁻ × O⁻) ∩ A with Q⁻ = Q̂ ∪ Q(p̂) and
-    O⁻ = Ô ∪ O(p̂) (every argument must be in O⁻), and that space widened by more objects, found
-    without a pass over every action (a re-plan widens it by the objects a disturbance changed)."""
+    O⁻ = Ô ∪ O(p̂) (every argument must be in O⁻), and that space widened for a re-plan from another
+    state (:meth:`around`), found without a pass over every action."""
 
     def __init__(self, task: GroundTask, hints: ResolvedHints) -> None:
         space = hints.space(task)
-        self.objects = space.objects
+        self.task = task
+        self.predicates, self.objects = space.predicates, space.objects
         self.base: list[int] = []
         #: The actions of Q⁻ with arguments outside O⁻, each under the least of those arguments.
         self.outside: dict[str, list[tuple[int, frozenset[str]]]] = defaultdict(list)
+        #: The actions of the predicates outside Q⁻, under their predicate, with their arguments outside O⁻.
+        self.other: dict[str, list[tuple[int, frozenset[str]]]] = defaultdict(list)
+        #: For each atom, the predicates of the actions that delete it.
+        self.deleting: dict[int, set[str]] = defaultdict(set)
         for action in task.actions:
-            if action.predicate not in space.predicates:
-                continue
+            for atom in action.delete:
+                self.deleting[atom].add(action.predicate)
             extra = frozenset(o for o in action.objects if o not in space.objects)
-            if extra:
+            if action.predicate not in space.predicates:
+                self.other[action.predicate].append((action.index, extra))
+            elif extra:
                 self.outside[min(extra)].append((action.index, extra))
             else:
                 self.base.append(action.index)
 
-    def actions(self, more: Iterable[str] = ()) -> tuple[int, ...]:
-        """The indices of A⁻ with O⁻ widened by the objects ``more``, in the task's order."""
-        added = set(more) - self.objects
+    def actions(self, objects: Iterable[str] = (), predicates: Iterable[str] = ()) -> tuple[int, ...]:
+        """The indices of A⁻ with O⁻ widened by ``objects`` and Q⁻ by ``predicates``, in task order."""
+        added = set(objects) - self.objects
         found = [index for obj in added for index, extra in self.outside.get(obj, ()) if extra <= added]
+        for name in sorted(set(predicates) - self.predicates):
+            found += [index for index, extra in self.other.get(name, ()) if extra <= added]
         return tuple(sorted([*self.base, *found])) if found else tuple(self.base)
+
+    def around(self, state: Iterable[int]) -> tuple[int, ...]:
+        """A⁻ for a re-plan from ``state``: widened by the objects of every atom the state changed
+        from the task's start state, and by the predicates of the actions that undo a change (delete
+        an atom it gained, add one it lost: put down what a disturbance put in a hand). The hints did
+        not foresee the disturbance."""
+        task, start = self.task, self.task.initial_state
+        changed = frozenset(state) ^ start
+        gained = changed - start
+        undo = {name for atom in gained for name in self.deleting.get(atom, ())}
+        undo |= {task.actions[index].predicate for atom in changed & start for index in task.achievers[atom]}
+        return self.actions({obj for atom in changed for obj in task.atoms[atom].args}, undo)
 
 
 def pruned_action_space(task: GroundTask, hints: ResolvedHints) -> tuple[int, ...]:
