@@ -107,7 +107,9 @@ class KeptSearch:
     def pruned_space(self, task: GroundTask, hints: Hints) -> PrunedSpace:
         """The pruned space of ``hints`` in ``task``, built once for the re-plans that share this."""
         if self._space is None or self._space[0] is not task or self._space[1] != hints:
-            self._space = (task, hints, PrunedSpace(task, resolve_hints(task, hints)))
+            space = PrunedSpace(task, resolve_hints(task, hints))
+            space.prepare()  # with the tree, not at the first re-plan
+            self._space = (task, hints, space)
         return self._space[2]
 
     def take(self, goal: Goal, config: SearchConfig) -> RepairableSearch | None:

@@ -7,6 +7,7 @@ correctness: they only order the search and choose the action space.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import logging
 import random
@@ -126,23 +127,47 @@ class PrunedSpace:
         space = hints.space(task)
         self.task = task
         self.predicates, self.objects = space.predicates, space.objects
-        self.base: list[int] = []
-        #: The actions of Q⁻ with arguments outside O⁻, each under the least of those arguments.
-        self.outside: dict[str, list[tuple[int, frozenset[str]]]] = defaultdict(list)
-        #: The actions of the predicates outside Q⁻, under their predicate, with their arguments outside O⁻.
-        self.other: dict[str, list[tuple[int, frozenset[str]]]] = defaultdict(list)
-        #: For each atom, the predicates of the actions that delete it.
-        self.deleting: dict[int, set[str]] = defaultdict(set)
-        for action in task.actions:
+        predicates, objects = space.predicates, space.objects
+        #: A⁻ itself, in task order.
+        self.base = tuple(
+            a.index for a in task.actions if a.predicate in predicates and all(o in objects for o in a.objects)
+        )
+
+    @functools.cached_property
+    def outside(self) -> dict[str, list[tuple[int, frozenset[str]]]]:
+        """The actions of Q⁻ with arguments outside O⁻, each under the least of those arguments
+        (built at the first widening)."""
+        table: dict[str, list[tuple[int, frozenset[str]]]] = defaultdict(list)
+        for action in self.task.actions:
+            if action.predicate in self.predicates:
+                extra = frozenset(action.objects) - self.objects
+                if extra:
+                    table[min(extra)].append((action.index, extra))
+        return table
+
+    @functools.cached_property
+    def other(self) -> dict[str, list[tuple[int, frozenset[str]]]]:
+        """The actions of the predicates outside Q⁻, under their predicate, with their arguments
+        outside O⁻ (built at the first widening by predicates)."""
+        table: dict[str, list[tuple[int, frozenset[str]]]] = defaultdict(list)
+        for action in self.task.actions:
+            if action.predicate not in self.predicates:
+                table[action.predicate].append((action.index, frozenset(action.objects) - self.objects))
+        return table
+
+    @functools.cached_property
+    def deleting(self) -> dict[int, set[str]]:
+        """For each atom, the predicates of the actions that delete it (built at the first use)."""
+        table: dict[int, set[str]] = defaultdict(set)
+        for action in self.task.actions:
             for atom in action.delete:
-                self.deleting[atom].add(action.predicate)
-            extra = frozenset(o for o in action.objects if o not in space.objects)
-            if action.predicate not in space.predicates:
-                self.other[action.predicate].append((action.index, extra))
-            elif extra:
-                self.outside[min(extra)].append((action.index, extra))
-            else:
-                self.base.append(action.index)
+                table[atom].add(action.predicate)
+        return table
+
+    def prepare(self) -> None:
+        """Build now the indexes :meth:`around` uses (else at its first call)."""
+        built = (self.outside, self.other, self.deleting)
+        log.debug("pruned space indexed: %d objects outside, %d other predicates", len(built[0]), len(built[1]))
 
     def actions(self, objects: Iterable[str] = (), predicates: Iterable[str] = ()) -> tuple[int, ...]:
         """The indices of A⁻ with O⁻ widened by ``objects`` and Q⁻ by ``predicates``, in task order."""
@@ -150,7 +175,7 @@ class PrunedSpace:
         found = [index for obj in added for index, extra in self.outside.get(obj, ()) if extra <= added]
         for name in sorted(set(predicates) - self.predicates):
             found += [index for index, extra in self.other.get(name, ()) if extra <= added]
-        return tuple(sorted([*self.base, *found])) if found else tuple(self.base)
+        return tuple(sorted([*self.base, *found])) if found else self.base
 
     def around(self, state: Iterable[int]) -> tuple[int, ...]:
         """A⁻ for a re-plan from ``state``: widened by the objects of every atom the state changed
