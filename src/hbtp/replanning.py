@@ -293,15 +293,17 @@ class Replanner:
         mutexes = self.mutexes if self.mutexes.conflict(frozenset(state)) is None else None
         config = planner_config(self.options.planner, heuristic=self.options.heuristic)
         if self.options.hints is not None:
-            space = self.kept.pruned_space(self.task, self.options.hints).around(state)
-            limits = Limits(time_s=seconds, max_expansions=PRUNED_EXPANSIONS)
-            pruned = [world.actions[i] for i in space if i not in self.excluded]
-            result = confirmed_search(world, goal, pruned, config, mutexes=mutexes, limits=limits)
-            if result.solved:
-                return Space.PRUNED, result
-            log.info("no tree in the hints' space (%s): the full space", result.status.value)
-            seconds = max(seconds - (time.perf_counter() - started), 1e-9)
-        return Space.FULL, self._full(world, goal, actions, config, mutexes, seconds)
+            space = self.kept.pruned_space(self.task, self.options.hints)
+            for widened in (space.around, space.beyond):
+                left = max(seconds - (time.perf_counter() - started), 1e-9)
+                limits = Limits(time_s=left, max_expansions=PRUNED_EXPANSIONS)
+                pruned = [world.actions[i] for i in widened(state) if i not in self.excluded]
+                result = confirmed_search(world, goal, pruned, config, mutexes=mutexes, limits=limits)
+                if result.solved:
+                    return Space.PRUNED, result
+                log.info("no tree in the hints' space (%s, %s)", widened.__name__, result.status.value)
+        left = max(seconds - (time.perf_counter() - started), 1e-9)
+        return Space.FULL, self._full(world, goal, actions, config, mutexes, left)
 
     def _full(
         self,

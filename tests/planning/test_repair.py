@@ -267,7 +267,8 @@ def test_a_replan_with_hints_searches_their_space_widened_by_what_changed(roboth
     """With the hints the tree was planned with, a re-plan answers from their pruned space widened by
     the objects of the atoms the state changed and the predicates of the actions that undo a change:
     at the cost of a fresh OBTEA search of that space, its tree reaching the goal from the state;
-    where that space holds no tree, from the full space at the optimal cost. The pruned answer is
+    where that space holds no tree, from the space of the undo actions within a step, else from the
+    full space at the optimal cost. The pruned answer is
     checked against the full space's optimum (never below)."""
     task, mutexes = robothow_small.task, robothow_small.mutexes.proved_only()
     goal = task.resolve_goal("IsIn_apple_fridge & IsClose_fridge")
@@ -284,6 +285,9 @@ def test_a_replan_with_hints_searches_their_space_widened_by_what_changed(roboth
         undo = {a.predicate for a in task.actions if a.delete & gained or a.add & lost}
         widened = hints_from_names(hints.path, [*hints.predicates, *undo], [*hints.objects, *changed])
         pruned = plan(world, goal, config, hints=widened, space=Space.PRUNED, mutexes=mutexes)
+        if not pruned.solved:  # then the actions that undo a change within a step (tested below)
+            further = policy.kept.pruned_space(task, hints).beyond(state)
+            pruned = search(world, world.resolve_goal(goal), [world.actions[i] for i in further], config)
         optimum = replanning.full_space_cost(robothow_small, goal, state)
         assert policy.replan(state, "test")
         replan = policy.replans[-1]
@@ -347,3 +351,35 @@ def test_a_replan_puts_down_what_a_disturbance_put_in_a_hand(robothow_small: Sce
     assert replan.cost is not None
     assert longer.cost is not None
     assert optimum <= replan.cost < longer.cost, (optimum, replan.cost, longer.cost)
+
+
+def test_a_thing_in_the_hand_that_must_be_free_is_put_down_where_the_hints_name_no_place(
+    robothow_small: Scenario,
+) -> None:
+    """The cutlets in the left hand, which opening the fridge needs free, and no place to put them in
+    the hints' space even widened (:meth:`PrunedSpace.around`): the space of the actions that undo the
+    change within one step (:meth:`PrunedSpace.beyond`: put them down on a surface after walking
+    there) answers, its tree reaching the goal, at no less than the full space's optimum."""
+    task, mutexes = robothow_small.task, robothow_small.mutexes
+    goal = task.resolve_goal("IsIn_apple_fridge & IsClose_fridge")
+    predicates = ["Walk", "RightGrab", "PlugIn", "Open", "RightPutIn", "Close"]
+    hints = hints_from_names(predicates=predicates, objects=["apple", "fridge"])
+    empty = task.initial_state - {task.atom_id("IsLeftHandEmpty_self")}
+    state = empty | {task.atom_id("IsLeftHolding_self_cutlets"), task.atom_id("IsLeftHandFull_self")}
+    space = PrunedSpace(task, resolve_hints(task, hints))
+    world = task.from_state(state)
+    config = planner_config("obtea", heuristic="lm")
+    narrow = search(world, world.resolve_goal(goal), [world.actions[i] for i in space.around(state)], config)
+    assert narrow.status is Status.UNSOLVABLE
+    policy = Replanner(robothow_small, goal, None, ReplanOptions(hints=hints))
+    assert policy.replan(state, "test")
+    replan = policy.replans[-1]
+    assert replan.space is Space.PRUNED
+    assert replan.tree is not None
+    assert run_tree(replan.tree, world, state, 1000).reached
+    optimum = replanning.full_space_cost(robothow_small, goal, state)
+    assert optimum is not None
+    assert replan.cost is not None
+    assert replan.cost >= optimum
+    assert set(space.around(state)) < set(space.beyond(state))
+    assert mutexes.proved_only().conflict(state) is None

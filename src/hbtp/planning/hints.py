@@ -189,6 +189,20 @@ class PrunedSpace:
         undo |= {task.actions[index].predicate for atom in changed & start for index in task.achievers[atom]}
         return self.actions({obj for atom in changed for obj in task.atoms[atom].args}, undo)
 
+    def beyond(self, state: Iterable[int]) -> tuple[int, ...]:
+        """:meth:`around` with the actions that undo a change and apply in ``state`` or after one
+        action that applies there, and those actions: put the thing in the hand down on any surface
+        (the hints name none to put it on), after walking there. A pass over every action."""
+        task, now = self.task, frozenset(state)
+        start = task.initial_state
+        gained, lost = now - start, start - now
+        applicable = [action for action in task.actions if action.pre <= now]
+        near = now.union(*(action.add for action in applicable))
+        undo = [a for a in task.actions if (a.delete & gained or a.add & lost) and a.pre <= near]
+        needed = frozenset().union(*(a.pre for a in undo)) - now
+        enabling = [action.index for action in applicable if action.add & needed]
+        return tuple(sorted({*self.around(now), *(a.index for a in undo), *enabling}))
+
 
 def pruned_action_space(task: GroundTask, hints: ResolvedHints) -> tuple[int, ...]:
     """A⁻ = (Q⁻ × O⁻) ∩ A (:class:`PrunedSpace`)."""
