@@ -522,8 +522,19 @@ def replanning_stats(
     seed: int = 0,
     max_ticks: int = DEFAULT_MAX_TICKS,
     options: ReplanOptions = ReplanOptions(),
+    *,
+    check: bool = False,
 ) -> dict[str, Any]:
-    """:func:`hbtp.bt.disturb.perturbation_stats` with re-planning (see :func:`replanning_summary`)."""
+    """:func:`hbtp.bt.disturb.perturbation_stats` with re-planning (see :func:`replanning_summary`);
+    with ``check``, each re-plan the hints' space answered is checked against :func:`full_space_cost`:
+    how many found that optimum (``optimal_replans``) and the cost the others added
+    (``replan_extra_cost``)."""
     base = simulate(tree, scenario.task, max_ticks=max_ticks)
     results = replanning_runs(scenario, goal, tree, p, runs, seed, max_ticks=max_ticks, options=options)
-    return {"p": p, "seed": seed, **replanning_summary(base, results, goal)}
+    stats = {"p": p, "seed": seed, **replanning_summary(base, results, goal)}
+    if check:
+        pruned = [replan for result in results for replan in result.replans if replan.space is Space.PRUNED]
+        pairs = [(replan.cost or 0, full_space_cost(scenario, goal, replan.state, options) or 0) for replan in pruned]
+        stats["optimal_replans"] = sum(cost == best for cost, best in pairs)
+        stats["replan_extra_cost"] = sum(cost - best for cost, best in pairs)
+    return stats

@@ -7,10 +7,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-import pytest
-
 from hbtp.deadline import Deadline
-from hbtp.domains import Scenario, load_scenario
+from hbtp.domains import Scenario
 from hbtp.errors import BackendError
 from hbtp.llm.backend import PromptStyle, Reply, Request
 from hbtp.llm.backends.replay import RecordingBackend, ReplayBackend
@@ -22,11 +20,6 @@ from hbtp.pipeline.loop import run_hbtp
 from hbtp.pipeline.results import Outcome
 
 Script = Callable[[Request], str]
-
-
-@pytest.fixture(scope="module")
-def robowaiter() -> Scenario:
-    return load_scenario("robowaiter")
 
 
 class Taught:

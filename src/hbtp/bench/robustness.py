@@ -27,7 +27,7 @@ from hbtp.bench.runner import DEFAULT_EXECUTION, Execution, RunFailure, Work, ha
 from hbtp.bt import tree_of
 from hbtp.bt.disturb import perturbation_stats
 from hbtp.bt.nodes import Node, size
-from hbtp.bt.simulate import condition_checks, simulate
+from hbtp.bt.simulate import condition_checks
 from hbtp.datasets import load_dataset
 from hbtp.datasets.records import Record
 from hbtp.domains import Scenario
@@ -38,7 +38,7 @@ from hbtp.planning import PLANNERS, Limits, PlanResult, plan
 from hbtp.planning.heuristic_names import HEURISTICS, HeuristicName
 from hbtp.planning.hints import Hints
 from hbtp.planning.planners import Space
-from hbtp.replanning import ReplanOptions, full_space_cost, replanning_runs, replanning_summary
+from hbtp.replanning import ReplanOptions, replanning_stats
 
 log = logging.getLogger(__name__)
 
@@ -369,15 +369,9 @@ def _stats(
     if kind not in REPLANNED:
         return perturbation_stats(tree, scenario.task, goal, scenario.mutexes, p, config.runs, seed, config.max_ticks)
     options = ReplanOptions(repair=config.repair, hints=hints)
-    base = simulate(tree, scenario.task, max_ticks=config.max_ticks)
-    results = replanning_runs(scenario, goal, tree, p, config.runs, seed, max_ticks=config.max_ticks, options=options)
-    stats = {"p": p, "seed": seed, **replanning_summary(base, results, goal)}
-    if config.check_replans:
-        pruned = [replan for result in results for replan in result.replans if replan.space is Space.PRUNED]
-        optima = [full_space_cost(scenario, goal, replan.state) for replan in pruned]
-        stats["optimal_replans"] = sum(r.cost == best for r, best in zip(pruned, optima, strict=True))
-        stats["replan_extra_cost"] = sum((r.cost or 0) - (best or 0) for r, best in zip(pruned, optima, strict=True))
-    return stats
+    return replanning_stats(
+        scenario, goal, tree, p, config.runs, seed, config.max_ticks, options, check=config.check_replans
+    )
 
 
 def summarise(

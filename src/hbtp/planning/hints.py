@@ -156,17 +156,17 @@ class PrunedSpace:
         return table
 
     @functools.cached_property
-    def deleting(self) -> dict[int, set[str]]:
-        """For each atom, the predicates of the actions that delete it (built at the first use)."""
-        table: dict[int, set[str]] = defaultdict(set)
+    def deleters(self) -> dict[int, list[int]]:
+        """For each atom, the actions that delete it (built at the first use)."""
+        table: dict[int, list[int]] = defaultdict(list)
         for action in self.task.actions:
             for atom in action.delete:
-                table[atom].add(action.predicate)
+                table[atom].append(action.index)
         return table
 
     def prepare(self) -> None:
         """Build now the indexes :meth:`around` uses (else at its first call)."""
-        built = (self.outside, self.other, self.deleting)
+        built = (self.outside, self.other, self.deleters)
         log.debug("pruned space indexed: %d objects outside, %d other predicates", len(built[0]), len(built[1]))
 
     def actions(self, objects: Iterable[str] = (), predicates: Iterable[str] = ()) -> tuple[int, ...]:
@@ -177,16 +177,21 @@ class PrunedSpace:
             found += [index for index, extra in self.other.get(name, ()) if extra <= added]
         return tuple(sorted([*self.base, *found])) if found else self.base
 
+    def undoing(self, state: frozenset[int]) -> set[int]:
+        """The actions that undo a change of ``state`` from the task's start state: delete an atom it
+        gained, or add one it lost."""
+        start, achievers = self.task.initial_state, self.task.achievers
+        undo = {index for atom in state - start for index in self.deleters.get(atom, ())}
+        return undo | {index for atom in start - state for index in achievers[atom]}
+
     def around(self, state: Iterable[int]) -> tuple[int, ...]:
         """A⁻ for a re-plan from ``state``: widened by the objects of every atom the state changed
-        from the task's start state, and by the predicates of the actions that undo a change (delete
-        an atom it gained, add one it lost: put down what a disturbance put in a hand). The hints did
-        not foresee the disturbance."""
-        task, start = self.task, self.task.initial_state
-        changed = frozenset(state) ^ start
-        gained = changed - start
-        undo = {name for atom in gained for name in self.deleting.get(atom, ())}
-        undo |= {task.actions[index].predicate for atom in changed & start for index in task.achievers[atom]}
+        from the task's start state, and by the predicates of the actions that undo a change
+        (:meth:`undoing`: put down what a disturbance put in a hand). The hints did not foresee the
+        disturbance."""
+        task, now = self.task, frozenset(state)
+        changed = now ^ task.initial_state
+        undo = {task.actions[index].predicate for index in self.undoing(now)}
         return self.actions({obj for atom in changed for obj in task.atoms[atom].args}, undo)
 
     def beyond(self, state: Iterable[int]) -> tuple[int, ...]:
@@ -194,11 +199,9 @@ class PrunedSpace:
         action that applies there, and those actions: put the thing in the hand down on any surface
         (the hints name none to put it on), after walking there. A pass over every action."""
         task, now = self.task, frozenset(state)
-        start = task.initial_state
-        gained, lost = now - start, start - now
         applicable = [action for action in task.actions if action.pre <= now]
         near = now.union(*(action.add for action in applicable))
-        undo = [a for a in task.actions if (a.delete & gained or a.add & lost) and a.pre <= near]
+        undo = [task.actions[index] for index in sorted(self.undoing(now)) if task.actions[index].pre <= near]
         needed = frozenset().union(*(a.pre for a in undo)) - now
         enabling = [action.index for action in applicable if action.add & needed]
         return tuple(sorted({*self.around(now), *(a.index for a in undo), *enabling}))

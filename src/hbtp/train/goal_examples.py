@@ -170,7 +170,12 @@ class _Alike:
 
 def _about_world(atoms: Sequence[Atom], words: Words) -> list[Atom]:
     """The ``atoms`` with no argument that is the robot itself."""
-    return [atom for atom in atoms if not any(words.noun(arg).agent for arg in atom.args)]
+    return [atom for atom in atoms if not _about_robot(atom, words)]
+
+
+def _about_robot(atom: Atom, words: Words) -> bool:
+    """Whether ``atom`` has the robot itself (the words' ``agent``) among its arguments."""
+    return any(words.noun(arg).agent for arg in atom.args)
 
 
 def _solvable(scenario: Scenario, goal: str) -> bool:
@@ -223,7 +228,7 @@ def about_world(record: Record, words: Words, rng: random.Random) -> Record:
     literals = record.goal.split(" & ")
     if "|" in record.goal or len(literals) == 1:
         return record
-    agent = [any(words.noun(arg).agent for arg in parse_atom(literal).args) for literal in literals]
+    agent = [_about_robot(parse_atom(literal), words) for literal in literals]
     sure = rng.randrange(len(literals)) if all(agent) else -1
     kept = [
         literal
