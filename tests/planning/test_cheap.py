@@ -72,7 +72,7 @@ def test_the_landmark_sum_in_c_equals_python(seed: int) -> None:
                 for c in (False, True)]  # fmt: skip
         python, c = made
         assert c.kernel is not None
-        c.tables = c.compiled_tables(c.kernel)
+        c.tables = c.compiled_tables()
         for condition in _conditions(task, seed):
             expected = python(condition)
             assert c(condition) == expected, (seed, sorted(condition))
@@ -94,7 +94,7 @@ def test_the_landmark_sum_in_c_reads_landmarks_given_as_sets() -> None:
     python = LandmarkSum(as_sets, share, task.initial_state, analysis.pre_landmarks, compiled=False)
     c = LandmarkSum(as_sets, share, task.initial_state, analysis.pre_landmarks, compiled=True)
     assert c.kernel is not None
-    c.tables = c.compiled_tables(c.kernel)
+    c.tables = c.compiled_tables()
     for condition in _conditions(task, 3):
         assert c(condition) == python(condition)
 
@@ -156,7 +156,7 @@ def test_the_scratch_marks_survive_wrapping_around() -> None:
     python = LandmarkSum(analysis.landmarks, share, task.initial_state, analysis.pre_landmarks, compiled=False)
     c = LandmarkSum(analysis.landmarks, share, task.initial_state, analysis.pre_landmarks, compiled=True)
     assert c.kernel is not None
-    c.tables = c.compiled_tables(c.kernel)
+    c.tables = c.compiled_tables()
     stamps = c.tables[3]
     count = len(task.atoms)
     for condition in _conditions(task, 5):

@@ -38,7 +38,6 @@ import heapq
 import math
 from array import array
 from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
-from types import ModuleType
 from typing import Protocol, overload
 
 from hbtp import compiled as extensions
@@ -49,7 +48,7 @@ from hbtp.logic.task import GroundAction, GroundTask
 from hbtp.planning.flow import StateEquation
 from hbtp.planning.heuristic_names import HeuristicName
 from hbtp.planning.lmcut import LmCut
-from hbtp.planning.pairs import COMPILED, PairCosts, cheap_kernel, mask_bytes, pair_costs
+from hbtp.planning.pairs import COMPILED, PairCosts, cheap_kernel, pair_costs
 
 _SETUP = "setting up the heuristic"
 
@@ -152,12 +151,13 @@ def landmark_table(
     The greatest fixpoint of ``LM(f) = {f} | ⋂ over the achievers a of f of ⋃ LM(pre(a))`` (``LM``
     of an s0 atom: itself), reached from "every atom" downwards: one pass over the usable actions
     in order of their h_max (``order``, the indices :func:`_explore` gives, saves sorting them),
-    then only the actions whose precondition's landmarks changed. The sets are computed as bit
-    masks (a union or an intersection is one integer operation) and read out as frozensets when
-    first asked for (:class:`Landmarks`)."""
-    table: list[int | None] = [None] * len(task.atoms)
+    then only the actions whose precondition's landmarks changed. The sets are small (about five
+    atoms in RobotHow at every size), so they are kept as frozensets: a union or an intersection
+    costs what the sets hold, not what the world holds (as bit masks over every atom they took the
+    square of the atoms in time and memory: 10 GB for RobotHow grown to 282,835 atoms)."""
+    table: list[frozenset[int] | None] = [None] * len(task.atoms)
     for atom in task.initial_state:
-        table[atom] = 1 << atom
+        table[atom] = frozenset((atom,))
     if order is None:
         usable = [a for a in actions if all(not math.isinf(reachable[p]) for p in a.pre)]
         usable.sort(key=lambda a: (max((reachable[p] for p in a.pre), default=0.0), a.index))
@@ -167,6 +167,7 @@ def landmark_table(
     queued = dict.fromkeys(order, True)
     pending = list(reversed(order))  # popped from the end: the first pass in order
     steps = 0
+    empty: frozenset[int] = frozenset()
     while pending:
         index = pending.pop()
         queued[index] = False
@@ -174,18 +175,19 @@ def landmark_table(
         if deadline is not None and steps & 255 == 0:
             deadline.check(_SETUP)
         action = everything[index]
-        needed = 0
+        parts = []
         for p in action.pre:
             part = table[p]
             if part is None:
                 break
-            needed |= part
+            parts.append(part)
         else:
+            needed = empty.union(*parts)
             for atom in action.add:
-                old, new = table[atom], needed | (1 << atom)
+                old, new = table[atom], needed if atom in needed else needed | {atom}
                 if old is None:
                     table[atom] = new
-                elif old & ~new:
+                elif not old <= new:
                     table[atom] = old & new
                 else:
                     continue
@@ -197,12 +199,10 @@ def landmark_table(
 
 
 class Landmarks(Sequence["frozenset[int] | None"]):
-    """By atom id, its landmarks as a frozenset (``None``: unreachable), read out of a bit mask when
-    first asked for (a search asks for few of the atoms)."""
+    """By atom id, its landmarks (``None``: unreachable), and the C kernel's form of them."""
 
-    def __init__(self, masks: list[int | None]) -> None:
-        self.masks = masks
-        self.known: dict[int, frozenset[int] | None] = {}
+    def __init__(self, sets: list[frozenset[int] | None]) -> None:
+        self.sets = sets
         self.lists: tuple[bytes, bytes] | None = None
 
     @overload
@@ -212,41 +212,30 @@ class Landmarks(Sequence["frozenset[int] | None"]):
     def __getitem__(self, index: slice) -> Sequence[frozenset[int] | None]: ...
 
     def __getitem__(self, index: int | slice) -> frozenset[int] | Sequence[frozenset[int] | None] | None:
-        if isinstance(index, slice):
-            return [self[i] for i in range(*index.indices(len(self.masks)))]
-        known = self.known
-        if index in known:
-            return known[index]
-        mask = self.masks[index]
-        value = None if mask is None else frozenset(_bits(mask))
-        known[index] = value
-        return value
+        return self.sets[index]
 
     def __len__(self) -> int:
-        return len(self.masks)
+        return len(self.sets)
 
-    def bit_lists(self, kernel: ModuleType) -> tuple[bytes, bytes]:
+    def span_lists(self) -> tuple[bytes, bytes]:
         """Every atom's landmarks as the C kernel reads them (made once)."""
         if self.lists is None:
-            self.lists = _bit_lists(kernel, self.masks)
+            self.lists = span_lists(self.sets)
         return self.lists
 
 
-def _bit_lists(kernel: ModuleType, masks: Sequence[int | None]) -> tuple[bytes, bytes]:
-    """The C kernel's form of per-atom bit masks (``None``: no set): spans into one list of atoms."""
-    count = len(masks)
-    lists: tuple[bytes, bytes] = kernel.bit_lists(
-        count, (None if mask is None else mask_bytes(mask, count) for mask in masks)
-    )
-    return lists
-
-
-def _bits(mask: int) -> Iterator[int]:
-    """The positions of the bits set in ``mask``, lowest first."""
-    while mask:
-        low = mask & -mask
-        yield low.bit_length() - 1
-        mask ^= low
+def span_lists(parts: Sequence[Collection[int] | None]) -> tuple[bytes, bytes]:
+    """Per-atom sets of atoms as the C kernel reads them: ``spans``, int32 ``[begin, end)`` per atom
+    into ``items`` (``begin`` -1 for ``None``), and ``items``, int32, each set's atoms lowest first."""
+    spans, items = array("i"), array("i")
+    for part in parts:
+        if part is None:
+            spans.extend((-1, -1))
+        else:
+            begin = len(items)
+            items.extend(sorted(part))
+            spans.extend((begin, len(items)))
+    return spans.tobytes(), items.tobytes()
 
 
 def landmark_costs(
@@ -398,7 +387,7 @@ class LandmarkSum:
             return float(self.kernel.landmark_sum(self.tables, condition))  # type: ignore[union-attr]
         self.calls += 1
         if self.calls > extensions.WARM_UP and self.kernel is not None:
-            self.tables = self.compiled_tables(self.kernel)
+            self.tables = self.compiled_tables()
         landmarks = self.landmarks
         parts = []
         for atom in condition:
@@ -415,15 +404,11 @@ class LandmarkSum:
             return max(float(total), max(hmax[a] for a in condition))
         return float(total)
 
-    def compiled_tables(self, kernel: ModuleType) -> tuple[bytes, bytes, bytes, bytearray, bytes | None]:
+    def compiled_tables(self) -> tuple[bytes, bytes, bytes, bytearray, bytes | None]:
         """What the C kernel reads: the landmarks' spans and atoms, the shares (0 in s0), its scratch
         marks and the h_max table."""
         landmarks = self.landmarks
-        if isinstance(landmarks, Landmarks):
-            spans, atoms = landmarks.bit_lists(kernel)
-        else:
-            masks = [None if part is None else sum(1 << f for f in part) for part in landmarks]
-            spans, atoms = _bit_lists(kernel, masks)
+        spans, atoms = landmarks.span_lists() if isinstance(landmarks, Landmarks) else span_lists(landmarks)
         s0 = self.initial_state
         share = array("d", (0.0 if f in s0 else float(value) for f, value in enumerate(self.share))).tobytes()
         hmax = None if self.hmax is None else array("d", self.hmax).tobytes()
