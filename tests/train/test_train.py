@@ -210,6 +210,22 @@ def test_auto_takes_the_cached_adapter_of_a_pddl_world(tmp_path: Path, monkeypat
     assert choose_adapter(AdapterChoice(), scenario="p", world="other", base_sha256=None) is None
 
 
+def test_a_world_grown_from_a_shipped_one_takes_its_shipped_adapter() -> None:
+    from hbtp.domains.scale import scaled_scenario
+    from hbtp.llm.backends.adapters import shipped_adapter, shipped_for_world
+    from hbtp.llm.backends.registry import BackendOptions, _adapter_of
+
+    shipped = shipped_adapter("robowaiter")
+    assert shipped is not None
+    grown = scaled_scenario("robowaiter", 1.5)
+    assert grown.name != "robowaiter"  # no shipped adapter of its own name
+    key = world_key(grown.domain_file, grown.problem_file)
+    assert shipped_for_world(key) == shipped
+    assert _adapter_of(grown, BackendOptions()) == shipped
+    assert _adapter_of(grown, BackendOptions(adapter=AdapterChoice.parse("none"))) is None
+    assert shipped_for_world("not a world") is None
+
+
 @pytest.mark.skipif(not HAVE_XLLAMACPP, reason="xllamacpp is not installed (the local extra)")
 def test_a_corrupt_adapter_falls_back_to_the_base_model(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
     from hbtp.llm.backend import Request

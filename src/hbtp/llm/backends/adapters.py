@@ -2,8 +2,11 @@
 
 An adapter teaches the shipped Gemma-3 270M one world (``hbtp train``, :mod:`hbtp.train`): a GGUF
 LoRA file that llama.cpp applies to the unchanged base model. Which one ``--llm local`` uses
-(:class:`AdapterChoice`): ``--adapter PATH``; ``--adapter none``; by default the world's own, the
-shipped adapter of a shipped scenario (package data, ``hbtp/llm/adapters/``), else the one
+(:class:`AdapterChoice`): ``--adapter PATH``; ``--adapter none``; by default the world's own: the
+shipped adapter of a shipped scenario (package data, ``hbtp/llm/adapters/``) or the shipped adapter
+made for the world's PDDL files (a world grown from a shipped one by cloning its objects, as
+``hbtp bench payoff`` grows RobotHow, is read from the same files: every object and fact the
+adapter was taught is in it, the clones are names it was never taught), else the one
 ``hbtp train --pddl`` left in the cache for that world.
 
 An adapter records what it was made for (GGUF metadata, read here without the ``gguf`` package):
@@ -77,6 +80,21 @@ def shipped_adapter(scenario: str) -> Path | None:
     """The adapter shipped for a shipped scenario, if there is one."""
     entry = resources.files("hbtp.llm") / "adapters" / f"{scenario}.gguf"
     return Path(str(entry)) if entry.is_file() else None
+
+
+def shipped_for_world(world: str) -> Path | None:
+    """The shipped adapter made for the world ``world`` (its PDDL files' key), if there is one."""
+    folder = resources.files("hbtp.llm") / "adapters"
+    for entry in sorted(folder.iterdir(), key=lambda item: item.name):
+        if entry.name.endswith(".gguf") and entry.is_file():
+            path = Path(str(entry))
+            try:
+                made_for = read_metadata(path).get(KEY_WORLD)
+            except (OSError, ValueError, struct.error):
+                continue
+            if made_for == world:
+                return path
+    return None
 
 
 def cache_folder() -> Path:
@@ -175,6 +193,9 @@ def _candidate(choice: AdapterChoice, scenario: str, world: str | None) -> Path 
     shipped = shipped_adapter(scenario)
     if shipped is not None or world is None:
         return shipped
+    shipped = shipped_for_world(world)
+    if shipped is not None:
+        return shipped
     cached = cached_adapter(world)
     return cached if cached.is_file() else None
 
@@ -203,6 +224,7 @@ __all__ = [
     "choose_adapter",
     "read_metadata",
     "shipped_adapter",
+    "shipped_for_world",
     "unfit",
     "world_key",
 ]
