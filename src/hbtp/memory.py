@@ -39,6 +39,19 @@ def resident_mb() -> float:
         return 0.0
 
 
+def peak_resident_mb() -> float:
+    """The most resident memory this process has had, in MB (0 where the platform does not say).
+
+    The kernel's high-water mark (``ru_maxrss``) is brought up to date when memory is given back,
+    so it can lag the current size by a few pages: the larger of the two is the peak."""
+    try:
+        import resource
+    except ImportError:  # not a Unix
+        return resident_mb()
+    kilobytes = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # Linux: kilobytes
+    return max(kilobytes * 1024 / MEGABYTE, resident_mb())
+
+
 class MemoryLimitReached(PlanningError):
     """An allocation failed under the memory limit."""
 
@@ -92,4 +105,12 @@ def _set_data_limit(limit: int) -> Callable[[], None] | None:
     return restore
 
 
-__all__ = ["HARD_MARGIN", "MEGABYTE", "MemoryLimitReached", "check_memory_mb", "memory_cap", "resident_mb"]
+__all__ = [
+    "HARD_MARGIN",
+    "MEGABYTE",
+    "MemoryLimitReached",
+    "check_memory_mb",
+    "memory_cap",
+    "peak_resident_mb",
+    "resident_mb",
+]

@@ -56,6 +56,8 @@ def test_payoff_runs_verifies_summarises_and_resumes(capsys: pytest.CaptureFixtu
     assert summary["cells"][0]["configs"][BEST_FREE]["verified"] == 2
     assert set(summary["crossings"]["size"]["hbtp:oracle"]) == {"total_s", "solve_s"}
     assert all(2 <= r["p_star"] <= 4 for r in results if r["axis"] == "level")  # generated easy tasks
+    assert all(r["peak_mb"] >= r["resident_mb"] > 0 for r in results)  # the process's peak, in MB
+    assert summary["cells"][0]["configs"]["hbtp:oracle"]["max_peak_mb"] > 0
     assert "When does the LLM pay?" in (out / "report.md").read_text(encoding="utf-8")
     assert "best LLM-free" in printed
     before = (out / "results.jsonl").read_text(encoding="utf-8")

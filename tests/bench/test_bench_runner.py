@@ -52,6 +52,11 @@ def sleepy(spec: int) -> Square:
     return square(spec)
 
 
+def whose(spec: int) -> Square:
+    """The run's worker process id, as the square (one worker runs all or each run has its own)."""
+    return Square(n=spec, square=os.getpid(), status="ok", solved=True)
+
+
 def crashing(spec: int) -> Square:
     if spec == 1:
         os._exit(3)  # a worker that dies (out of memory, a segfault in a native library)
@@ -81,6 +86,16 @@ def test_local_workers_kill_a_runaway_run_and_keep_the_others(tmp_path: Path) ->
     # The killed run's line holds its known fields and the failure, nothing else.
     killed = [json.loads(line) for line in (tmp_path / "results.jsonl").read_text(encoding="utf-8").splitlines()]
     assert [set(line) for line in killed if line["n"] == 2] == [{"n", "status", "solved", "time_s"}]
+
+
+def test_fresh_workers_give_every_run_a_process_of_its_own(tmp_path: Path) -> None:
+    kept, fresh = results_in(tmp_path / "kept"), results_in(tmp_path / "fresh")
+    for results, fresh_workers in ((kept, False), (fresh, True)):
+        execution = Execution(progress=False, fresh_workers=fresh_workers)
+        run_work(whose, work_of(range(4)), results, execution, kill_after=60, description="t")
+    assert len({row.square for row in kept.rows.values()}) == 1
+    assert len({row.square for row in fresh.rows.values()}) == 4
+    assert os.getpid() not in {row.square for row in fresh.rows.values()}
 
 
 def test_a_run_that_kills_its_worker_is_recorded_as_crashed(tmp_path: Path) -> None:

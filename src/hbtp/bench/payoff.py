@@ -57,7 +57,7 @@ from hbtp.llm.backend import Backend
 from hbtp.llm.backends.registry import BackendOptions, LlmSpec
 from hbtp.llm.pool import example_pool
 from hbtp.logic.task import Goal, GroundTask
-from hbtp.memory import resident_mb
+from hbtp.memory import peak_resident_mb, resident_mb
 from hbtp.pipeline import LoopOptions, run_hbtp
 from hbtp.planning import Limits, PlanResult, plan, release_search_memory
 from hbtp.planning.generate import LEVELS, Sampling, generate_records
@@ -138,6 +138,8 @@ class PayoffRow(Row):
     rounds: int | None = optional()
     grounded_whole: bool | None = optional()
     resident_mb: int | None = optional()
+    #: The worker process's peak resident memory so far: the run's own with ``--fresh-workers``.
+    peak_mb: int | None = optional()
     time_s: float | None = optional()
 
     @property
@@ -363,6 +365,7 @@ def run_one(run: PayoffRun) -> PayoffRow:
         solve_s=round(solve, 6),
         total_s=round(solve + loaded.load_s, 6),
         resident_mb=round(resident_mb()),
+        peak_mb=round(peak_resident_mb()),
     )
 
 
@@ -471,6 +474,8 @@ def _stats(rows: Sequence[PayoffRow]) -> dict[str, Any]:
     stats: dict[str, Any] = {"tasks": len(rows), "verified": len(good)}
     phases = [r.phases for r in good]
     stats.update({f"median_{phase}": median(p[phase] for p in phases) for phase in PAYOFF_PHASES})
+    peaks = [r.peak_mb for r in rows if r.peak_mb is not None]
+    stats["max_peak_mb"] = max(peaks) if peaks else None
     return stats
 
 

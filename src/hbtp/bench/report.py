@@ -346,10 +346,11 @@ def payoff_section(summary: dict[str, Any]) -> str:
                     _s(against.get("median_ratio_total")),
                     _s(against.get("median_ratio_solve")),
                     against.get("wins_total", "–"),
+                    "–" if stats.get("max_peak_mb") is None else stats["max_peak_mb"],
                 ]
             )
     header = ["axis", "cell", "|A|", "configuration", "verified", "total s", "solve s", "load s", "model s"]
-    header += ["planning s", "verify s", "ratio total", "ratio solve", "wins"]
+    header += ["planning s", "verify s", "ratio total", "ratio solve", "wins", "peak MB"]
     cross = [
         [axis, name, measure, ", ".join(c["faster_in"]) or "nowhere", ", ".join(c["crosses"]) or "–"]
         for axis, by_name in summary["crossings"].items()
@@ -365,7 +366,9 @@ def payoff_section(summary: dict[str, Any]) -> str:
             f"{config['feedback_rounds']} feedback rounds, the full-space fallback. Medians over the verified "
             "trees; total = load + model + planning + verification, solve = total without the load; ratios are "
             "medians over the tasks of guided / best LLM-free (below 1: the LLM pays); wins: tasks where "
-            f"guidance reached a verified tree first. Runs: {summary['runs']}, unverified: {summary['unverified']}.",
+            "guidance reached a verified tree first; peak MB: the most resident memory of a worker that ran the "
+            "configuration (a run's own with --fresh-workers). "
+            f"Runs: {summary['runs']}, unverified: {summary['unverified']}.",
             _table(header, rows),
             "Where the curves cross (medians, LLM-guided against best LLM-free):",
             _table(["axis", "configuration", "measure", "guided faster in", "order flips between"], cross),

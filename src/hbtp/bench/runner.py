@@ -84,12 +84,15 @@ class Work:
 @dataclass(frozen=True)
 class Execution:
     """How to run: ``executor``, ``jobs`` in parallel, ``kill_after`` seconds per run (``None``: the
-    benchmark's default), and whether to show a progress bar."""
+    benchmark's default), whether to show a progress bar, and (``local``) whether every run gets a
+    new worker process (``fresh_workers``: a run's peak memory is then its own; nothing a worker
+    loaded is kept for the next run)."""
 
     executor: Executor = Executor.LOCAL
     jobs: int = 1
     kill_after: float | None = None
     progress: bool = True
+    fresh_workers: bool = False
 
     def __post_init__(self) -> None:
         try:  # text from an untyped caller becomes the value
@@ -166,7 +169,7 @@ def run_work(
                 _store(results, function(item.spec))
                 bar.update(1)
         elif execution.executor is Executor.LOCAL:
-            _run_local(function, pending, results, execution.jobs, limit, bar)
+            _run_local(function, pending, results, execution, limit, bar)
         else:
             _run_ray(function, pending, results, execution.jobs, limit, bar)
     finally:
@@ -209,15 +212,22 @@ def in_worker(function: RunFunction[R], spec: Any) -> R | list[R]:
 
 
 def _run_local(
-    function: RunFunction[R], pending: Sequence[Work], results: ResultsFile[R], jobs: int, limit: float, bar: _Progress
+    function: RunFunction[R],
+    pending: Sequence[Work],
+    results: ResultsFile[R],
+    execution: Execution,
+    limit: float,
+    bar: _Progress,
 ) -> None:
-    """``jobs`` worker processes (a :class:`pebble.ProcessPool`): a run past ``limit`` seconds is
-    stopped with its worker, and a worker that dies is charged to the one run it was running; the
-    pool replaces either worker and the other runs go on undisturbed."""
+    """``execution.jobs`` worker processes (a :class:`pebble.ProcessPool`; with ``fresh_workers`` a
+    new one for every run): a run past ``limit`` seconds is stopped with its worker, and a worker
+    that dies is charged to the one run it was running; the pool replaces either worker and the
+    other runs go on undisturbed."""
     queue = list(reversed(pending))
     running: dict[Future[Any], tuple[Work, float]] = {}
+    jobs = execution.jobs
     for restart in range(MAX_POOL_RESTARTS + 1):
-        pool = ProcessPool(max_workers=jobs, context=_context())
+        pool = ProcessPool(max_workers=jobs, max_tasks=1 if execution.fresh_workers else 0, context=_context())
         try:
             _drain(function, pool, queue, running, results, jobs, limit, bar)
             return

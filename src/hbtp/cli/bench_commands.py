@@ -63,11 +63,17 @@ task_time_limit_option = click.option(
 )
 
 
-def _execution(jobs: int, executor: str, kill_after: float | None, no_progress: bool) -> Execution:
-    return Execution(executor=Executor(executor), jobs=jobs, kill_after=kill_after, progress=not no_progress)
+def _execution(jobs: int, executor: str, kill_after: float | None, no_progress: bool, fresh_workers: bool) -> Execution:
+    return Execution(
+        executor=Executor(executor),
+        jobs=jobs,
+        kill_after=kill_after,
+        progress=not no_progress,
+        fresh_workers=fresh_workers,
+    )
 
 
-#: ``--jobs``, ``--executor``, ``--kill-after``, ``--no-progress``, passed on as ``execution``.
+#: ``--jobs``, ``--executor``, ``--kill-after``, ``--no-progress``, ``--fresh-workers``, passed on as ``execution``.
 execution_options = option_group(
     "execution",
     _execution,
@@ -85,6 +91,12 @@ execution_options = option_group(
         help="Hard limit in seconds per run: the worker is killed (default: from the benchmark's time limits).",
     ),
     click.option("--no-progress", is_flag=True, help="No progress bar."),
+    click.option(
+        "--fresh-workers",
+        is_flag=True,
+        help="local: a new worker process for every run (a run's peak memory is its own; slower: "
+        "nothing a worker loaded is kept for the next run).",
+    ),
 )
 
 
