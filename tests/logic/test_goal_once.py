@@ -74,3 +74,23 @@ def test_a_resolved_goal_knows_its_task_and_forgets_it_when_pickled(robothow: Sc
     assert copy == goal
     assert not copy.resolved_in(robothow.task)
     assert robothow.task.resolve_goal(copy) == goal  # resolved again, the same value
+
+
+def test_a_goal_resolved_again_from_another_state_is_the_goal_read_anew(robothow_small: Scenario) -> None:
+    """Re-planning resolves the goal in the task from the observed state: what depends on s0 (which
+    literals can never hold) is worked out again, the literals are not checked and spelled again."""
+    from hbtp.logic.negation import with_negations
+
+    task = robothow_small.task
+    text = "IsIn_apple_fridge & IsClose_fridge | IsOn_apple_kitchentable"
+    goal = task.resolve_goal(text)
+    plugged = task.atom_ids[task.spelled(goals.parse_atom("IsPlugged_fridge"))]
+    for state in (task.initial_state, task.initial_state - {plugged}, frozenset()):
+        world = task.from_state(state)
+        again, anew = world.resolve_goal(goal), world.resolve_goal(text)
+        assert (again.terms, again.disjuncts, again.unreachable, again.reachable) == (
+            anew.terms, anew.disjuncts, anew.unreachable, anew.reachable,
+        )  # fmt: skip
+        assert again.resolved_in(world)
+    other = with_negations(task, [plugged])  # other atoms: read anew, not taken over
+    assert other.resolve_goal(goal).resolved_in(other)

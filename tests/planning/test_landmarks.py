@@ -6,11 +6,11 @@ from __future__ import annotations
 import math
 
 import pytest
+from tests.helpers import random_case
 
 from hbtp.domains.scale import scaled_scenario
 from hbtp.logic.task import GroundTask
 from hbtp.planning.heuristics import _explore, landmark_table, span_lists
-from tests.helpers import random_case
 
 
 def naive_landmarks(task: GroundTask) -> list[frozenset[int] | None]:

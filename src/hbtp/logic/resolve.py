@@ -106,9 +106,12 @@ def resolve_goal(task: GroundTask, goal: GoalSource) -> Goal:
     unreachable: list[Atom] = []
     contradictory: list[tuple[Atom, ...]] = []
     live: list[frozenset[int]] = []
-    terms = goal_terms(task, goal)
+    # A goal resolved against the same atoms (the task from another s0, when re-planning) has its
+    # literals checked and spelled already; only what depends on s0 is worked out again.
+    checked = isinstance(goal, Goal) and _same_atoms(goal, task)
+    terms = goal.terms if isinstance(goal, Goal) and checked else goal_terms(task, goal)
     for term in terms:
-        ids, missing = _term_ids(task, term)
+        ids, missing = _term_ids(task, term, checked)
         if ids is None:
             contradictory.append(term)
             continue
@@ -125,13 +128,22 @@ def resolve_goal(task: GroundTask, goal: GoalSource) -> Goal:
     return Goal(terms, kept, tuple(unreachable), tuple(contradictory), roots, weakref.ref(task))
 
 
-def _term_ids(task: GroundTask, term: tuple[Atom, ...]) -> tuple[frozenset[int] | None, list[Atom]]:
+def _same_atoms(goal: Goal, task: GroundTask) -> bool:
+    """Whether ``goal`` was resolved against a task with ``task``'s very atoms (and so symbols)."""
+    origin = goal.origin() if goal.origin is not None else None
+    return origin is not None and getattr(origin, "atoms", None) is task.atoms and origin.symbols is task.symbols
+
+
+def _term_ids(
+    task: GroundTask, term: tuple[Atom, ...], checked: bool = False
+) -> tuple[frozenset[int] | None, list[Atom]]:
     """The atom ids of one conjunction, and its literals that can never hold (``None`` ids when
     it asks for a literal and its negation)."""
     ids: set[int] = set()
     missing: list[Atom] = []
     for atom in term:
-        check_literal(task, atom)
+        if not checked:
+            check_literal(task, atom)
         if atom.predicate not in task.predicates:  # static: true or false in every state
             if (atom.positive in task.static_facts) == atom.negated:
                 missing.append(atom)

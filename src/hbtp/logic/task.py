@@ -147,7 +147,7 @@ class GroundTask:
     #: The lookups above that do not depend on s0 (kept by :meth:`from_state`).
     _STATE_FREE = (
         "atom_ids", "action_ids", "action_predicates", "achievers", "consumers", "symbols", "static_arities",
-        "categories", "negation_ids", "_state_free_tables",
+        "categories", "negation_ids", "_state_free_tables", "_spellings",
     )  # fmt: skip
 
     def from_state(self, state: Iterable[int]) -> GroundTask:

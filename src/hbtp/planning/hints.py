@@ -186,13 +186,17 @@ class PrunedSpace:
 
     def around(self, state: Iterable[int]) -> tuple[int, ...]:
         """A⁻ for a re-plan from ``state``: widened by the objects of every atom the state changed
-        from the task's start state, and by the predicates of the actions that undo a change
-        (:meth:`undoing`: put down what a disturbance put in a hand). The hints did not foresee the
-        disturbance."""
+        from the task's start state, by the predicates of the actions that undo a change
+        (:meth:`undoing`: put down what a disturbance put in a hand), and by the actions that apply
+        in ``state`` and give back an atom of the start state it took away (empty the hand where the
+        robot is, on what the hints never name). The hints did not foresee the disturbance."""
         task, now = self.task, frozenset(state)
         changed = now ^ task.initial_state
         undo = {task.actions[index].predicate for index in self.undoing(now)}
-        return self.actions({obj for atom in changed for obj in task.atoms[atom].args}, undo)
+        widened = self.actions({obj for atom in changed for obj in task.atoms[atom].args}, undo)
+        actions, achievers = task.actions, task.achievers
+        restoring = {i for atom in task.initial_state - now for i in achievers[atom] if actions[i].pre <= now}
+        return widened if restoring <= set(widened) else tuple(sorted(restoring.union(widened)))
 
     def beyond(self, state: Iterable[int]) -> tuple[int, ...]:
         """:meth:`around` with the actions that undo a change and apply in ``state`` or after one
