@@ -213,7 +213,7 @@ def test_auto_takes_the_cached_adapter_of_a_pddl_world(tmp_path: Path, monkeypat
 def test_a_world_grown_from_a_shipped_one_takes_its_shipped_adapter() -> None:
     from hbtp.domains.scale import scaled_scenario
     from hbtp.llm.backends.adapters import shipped_adapter, shipped_for_world
-    from hbtp.llm.backends.registry import BackendOptions, _adapter_of
+    from hbtp.llm.backends.registry import BackendOptions, _adapters_of
 
     shipped = shipped_adapter("robowaiter")
     assert shipped is not None
@@ -221,9 +221,60 @@ def test_a_world_grown_from_a_shipped_one_takes_its_shipped_adapter() -> None:
     assert grown.name != "robowaiter"  # no shipped adapter of its own name
     key = world_key(grown.domain_file, grown.problem_file)
     assert shipped_for_world(key) == shipped
-    assert _adapter_of(grown, BackendOptions()) == shipped
-    assert _adapter_of(grown, BackendOptions(adapter=AdapterChoice.parse("none"))) is None
+    assert _adapters_of(grown, BackendOptions())[0] == shipped
+    assert _adapters_of(grown, BackendOptions(adapter=AdapterChoice.parse("none"))) == (None, None)
     assert shipped_for_world("not a world") is None
+
+
+def test_a_shipped_adapter_may_have_a_companion_that_reads_instructions() -> None:
+    from hbtp.domains import load_scenario
+    from hbtp.llm.backend import Request
+    from hbtp.llm.backends.adapters import instruction_adapter, shipped_adapter
+    from hbtp.llm.backends.registry import BackendOptions, _adapters_of
+
+    robothow = load_scenario("robothow")
+    adapter, reader = _adapters_of(robothow, BackendOptions())
+    assert adapter == shipped_adapter("robothow")
+    assert reader is not None
+    assert reader.name == "robothow.instructions.gguf"
+    key = world_key(robothow.domain_file, robothow.problem_file)
+    assert unfit(reader, world=key, base_sha256=None) is None  # taught the same world
+    assert instruction_adapter(AdapterChoice.parse(str(adapter)), adapter, world=key, base_sha256=None) is None
+    assert _adapters_of(load_scenario("robowaiter"), BackendOptions())[1] is None  # none shipped there
+    # each request switches to its adapter: the hints' for a plan, the companion's for an instruction
+    pytest.importorskip("xllamacpp")
+    from hbtp.llm.backends.local import LocalBackend
+
+    both = LocalBackend(adapter=adapter, instruction_adapter=reader, threads=1)
+    taught = Request((), "Goals: IsCut_pancake\nOptimal Actions:", taught=True)
+    reading = Request((), "Instruction: cut the pancake\nGoals:", taught=True, instruction="cut the pancake")
+    assert both._lora(taught) == [{"id": 0, "scale": 1.0}, {"id": 1, "scale": 0.0}]
+    assert both._lora(reading) == [{"id": 0, "scale": 0.0}, {"id": 1, "scale": 1.0}]
+    assert both._lora(Request((), "Goals: x")) == [{"id": 0, "scale": 0.0}, {"id": 1, "scale": 0.0}]
+    assert LocalBackend(adapter=adapter, threads=1)._lora(reading) is None  # one adapter reads all
+    assert LocalBackend(instruction_adapter=reader, threads=1).instruction_adapter is None  # no companion alone
+
+
+@pytest.mark.skipif(not HAVE_XLLAMACPP, reason="xllamacpp is not installed (the local extra)")
+def test_two_adapters_in_one_model_answer_as_each_alone() -> None:
+    from hbtp.llm.backend import Request
+    from hbtp.llm.backends.adapters import shipped_adapter
+    from hbtp.llm.backends.local import LocalBackend
+
+    adapter = shipped_adapter("robothow")
+    assert adapter is not None
+    reader = adapter.with_name("robothow.instructions.gguf")
+    plan = Request((), "Goals: IsIn_milk_fridge & IsClose_fridge\nOptimal Actions:", max_tokens=24, taught=True)
+    goal = Request((), "Instruction: put the milk in the fridge\nGoals:", max_tokens=12, taught=True, instruction="x")
+    replies = {}
+    for name, backend in {
+        "both": LocalBackend(adapter=adapter, instruction_adapter=reader, threads=1),
+        "plans": LocalBackend(adapter=adapter, threads=1),
+        "reads": LocalBackend(adapter=reader, threads=1),
+    }.items():
+        with backend:
+            replies[name] = (backend.complete(plan).text, backend.complete(goal).text)
+    assert replies["both"] == (replies["plans"][0], replies["reads"][1])
 
 
 @pytest.mark.skipif(not HAVE_XLLAMACPP, reason="xllamacpp is not installed (the local extra)")

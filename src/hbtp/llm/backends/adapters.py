@@ -7,7 +7,9 @@ shipped adapter of a shipped scenario (package data, ``hbtp/llm/adapters/``) or 
 made for the world's PDDL files (a world grown from a shipped one by cloning its objects, as
 ``hbtp bench payoff`` grows RobotHow, is read from the same files: every object and fact the
 adapter was taught is in it, the clones are names it was never taught), else the one
-``hbtp train --pddl`` left in the cache for that world.
+``hbtp train --pddl`` left in the cache for that world. A shipped adapter may come with a
+companion that reads instructions (``<scenario>.instructions.gguf``, :func:`instruction_adapter`):
+one model load serves both, each request switching to its adapter.
 
 An adapter records what it was made for (GGUF metadata, read here without the ``gguf`` package):
 the base model's sha256 and the world's key (a hash of its PDDL files). A file that is not a GGUF
@@ -37,6 +39,9 @@ KEY_FORMAT = "hbtp.prompt_format"
 #: The prompt format adapters are trained on (:func:`hbtp.llm.prompt.taught_prompt`); an adapter of
 #: another format would be asked questions it was never taught.
 PROMPT_FORMAT = 2
+#: A shipped adapter ``<name>.gguf`` may have a companion ``<name>.instructions.gguf`` that reads
+#: instructions (taught with more instruction examples); the first one answers the hints.
+INSTRUCTIONS_SUFFIX = ".instructions.gguf"
 #: The most metadata entries read from an adapter (a real one has about a dozen).
 _MAX_FIELDS = 4096
 _MAX_STRING = 1 << 20
@@ -86,7 +91,7 @@ def shipped_for_world(world: str) -> Path | None:
     """The shipped adapter made for the world ``world`` (its PDDL files' key), if there is one."""
     folder = resources.files("hbtp.llm") / "adapters"
     for entry in sorted(folder.iterdir(), key=lambda item: item.name):
-        if entry.name.endswith(".gguf") and entry.is_file():
+        if entry.name.endswith(".gguf") and not entry.name.endswith(INSTRUCTIONS_SUFFIX) and entry.is_file():
             path = Path(str(entry))
             try:
                 made_for = read_metadata(path).get(KEY_WORLD)
@@ -200,6 +205,24 @@ def _candidate(choice: AdapterChoice, scenario: str, world: str | None) -> Path 
     return cached if cached.is_file() else None
 
 
+def instruction_adapter(
+    choice: AdapterChoice, adapter: Path | None, *, world: str | None, base_sha256: str | None
+) -> Path | None:
+    """The companion that reads instructions of the shipped ``adapter`` that ``--adapter auto``
+    chose (``None``: ``adapter`` reads them too), checked as :func:`choose_adapter` checks."""
+    if choice.mode is not AdapterMode.AUTO or adapter is None or not adapter.name.endswith(".gguf"):
+        return None
+    companion = adapter.with_name(adapter.name.removesuffix(".gguf") + INSTRUCTIONS_SUFFIX)
+    shipped = Path(str(resources.files("hbtp.llm") / "adapters"))
+    if adapter.parent != shipped or not companion.is_file():
+        return None
+    reason = unfit(companion, world=world, base_sha256=base_sha256)
+    if reason is not None:
+        log.warning("adapter %s is not used: %s; %s reads the instructions", companion, reason, adapter.name)
+        return None
+    return companion
+
+
 def choose_adapter(choice: AdapterChoice, *, scenario: str, world: str | None, base_sha256: str | None) -> Path | None:
     """The adapter file the local model uses for ``scenario`` (the world ``world``), checked, or
     ``None`` (the base model) when there is none or it does not fit (a one-line warning)."""
@@ -214,6 +237,7 @@ def choose_adapter(choice: AdapterChoice, *, scenario: str, world: str | None, b
 
 
 __all__ = [
+    "INSTRUCTIONS_SUFFIX",
     "KEY_BASE",
     "KEY_FORMAT",
     "KEY_WORLD",
@@ -222,6 +246,7 @@ __all__ = [
     "AdapterMode",
     "cached_adapter",
     "choose_adapter",
+    "instruction_adapter",
     "read_metadata",
     "shipped_adapter",
     "shipped_for_world",

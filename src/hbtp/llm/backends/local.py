@@ -380,6 +380,7 @@ class LocalBackend:
         prompt_cache: bool = False,
         constrain: bool = True,
         adapter: str | Path | None = None,
+        instruction_adapter: str | Path | None = None,
     ) -> None:
         if importlib.util.find_spec("xllamacpp") is None:
             raise BackendError(f"the local model needs xllamacpp; {_INSTALL_LOCAL}")
@@ -395,6 +396,11 @@ class LocalBackend:
         #: A LoRA adapter that teaches the model the world (:mod:`hbtp.llm.backends.adapters`), checked
         #: by the caller; ``None``: the base model.
         self.adapter: Path | None = None if adapter is None else Path(adapter)
+        #: Its companion that reads instructions (a request with ``instruction``), loaded beside it
+        #: (one model, each request switching adapters); ``None``: the adapter reads them too.
+        self.instruction_adapter: Path | None = (
+            None if instruction_adapter is None or adapter is None else Path(instruction_adapter)
+        )
         model = self.model_path.stem if self.model_path else DEFAULT_MODEL_ALIAS
         self.name = f"local:{model}" + (f"+{self.adapter.stem}" if self.adapter is not None else "")
         #: Seconds the model took to load (``None`` until it is loaded).
@@ -428,17 +434,34 @@ class LocalBackend:
             )
 
     def _start(self, xllamacpp: ModuleType, params: Any, path: Path) -> Any:
-        """The server with the adapter; without it (a one-line warning) when llama.cpp refuses it."""
+        """The server with the adapters; with fewer (a one-line warning each) when llama.cpp refuses them."""
+        while self.adapter is not None:
+            adapters = [a for a in (self.adapter, self.instruction_adapter) if a is not None]
+            params.lora_adapters = [xllamacpp.CommonAdapterLoraInfo(str(a), 1.0) for a in adapters]
+            named = " and ".join(str(a) for a in adapters)
+            try:
+                return start_server(xllamacpp, params, what=f"the local model {path} with the adapter {named}")
+            except BackendError:
+                if self.instruction_adapter is not None:
+                    log.warning("llama.cpp refused the adapter %s; %s reads instructions", named, self.adapter.name)
+                    self.instruction_adapter = None
+                else:
+                    log.warning("llama.cpp refused the adapter %s; the base model answers", self.adapter)
+                    self.adapter = None
+        params.lora_adapters = []
+        return start_server(xllamacpp, params, what=f"the local model {path}")
+
+    def _lora(self, request: Request) -> list[dict[str, Any]] | None:
+        """The adapters' scales for ``request`` (``None``: the one adapter as loaded): none for a
+        few-shot prompt (the base model answers), the companion alone for an instruction."""
         if self.adapter is None:
-            return start_server(xllamacpp, params, what=f"the local model {path}")
-        params.lora_adapters = [xllamacpp.CommonAdapterLoraInfo(str(self.adapter), 1.0)]
-        try:
-            return start_server(xllamacpp, params, what=f"the local model {path} with the adapter {self.adapter}")
-        except BackendError:
-            log.warning("llama.cpp refused the adapter %s; the base model answers", self.adapter)
-            self.adapter = None
-            params.lora_adapters = []
-            return start_server(xllamacpp, params, what=f"the local model {path}")
+            return None
+        if not request.taught:
+            return [{"id": i, "scale": 0.0} for i in range(1 + (self.instruction_adapter is not None))]
+        if self.instruction_adapter is None:
+            return None
+        reads = bool(request.instruction)
+        return [{"id": 0, "scale": 0.0 if reads else 1.0}, {"id": 1, "scale": 1.0 if reads else 0.0}]
 
     @property
     def taught(self) -> bool:
@@ -483,8 +506,9 @@ class LocalBackend:
             body["top_k"] = 1
         if request.constraint is not None and self.constrain:
             body["grammar"] = request.constraint.gbnf
-        if self.adapter is not None and not request.taught:  # a few-shot prompt: the base model answers
-            body["lora"] = [{"id": 0, "scale": 0.0}]
+        lora = self._lora(request)
+        if lora is not None:
+            body["lora"] = lora
         started = time.perf_counter()
         result = self._answer(server, body, deadline)
         reply = reply_from_result(result, time.perf_counter() - started, model=str(self.model_path))

@@ -11,7 +11,7 @@ from pathlib import Path
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError
 from hbtp.llm.backend import Backend
-from hbtp.llm.backends.adapters import AdapterChoice, choose_adapter, world_key
+from hbtp.llm.backends.adapters import AdapterChoice, choose_adapter, instruction_adapter, world_key
 from hbtp.llm.backends.oracle import InstructionOracle, NoisyOracleBackend, OracleBackend
 from hbtp.llm.backends.replay import RecordingBackend, ReplayBackend
 
@@ -118,27 +118,31 @@ def make_backend(spec: LlmSpec | str, scenario: Scenario, options: BackendOption
     else:
         from hbtp.llm.backends.local import LocalBackend
 
+        adapter, reader = _adapters_of(scenario, options)
         backend = LocalBackend(
             model_path=options.model_path,
             threads=options.threads,
             seed=options.seed,
             prompt_cache=options.prompt_cache,
             constrain=options.constrain,
-            adapter=_adapter_of(scenario, options),
+            adapter=adapter,
+            instruction_adapter=reader,
         )
     if options.record:
         backend = RecordingBackend(backend, options.record)
     return backend
 
 
-def _adapter_of(scenario: Scenario, options: BackendOptions) -> Path | None:
-    """The adapter the local model uses in ``scenario`` (see :mod:`hbtp.llm.backends.adapters`)."""
+def _adapters_of(scenario: Scenario, options: BackendOptions) -> tuple[Path | None, Path | None]:
+    """The adapter the local model uses in ``scenario``, and its companion that reads instructions
+    (``None``: the adapter reads them too; see :mod:`hbtp.llm.backends.adapters`)."""
     from hbtp.llm.backends.local import default_model_sha256
 
     files = (Path(scenario.domain_file), Path(scenario.problem_file))
     world = world_key(*files) if all(path.is_file() for path in files) else None
     base = default_model_sha256() if options.model_path is None else None
-    return choose_adapter(options.adapter, scenario=scenario.name, world=world, base_sha256=base)
+    adapter = choose_adapter(options.adapter, scenario=scenario.name, world=world, base_sha256=base)
+    return adapter, instruction_adapter(options.adapter, adapter, world=world, base_sha256=base)
 
 
 def make_goal_backend(spec: LlmSpec | str, scenario: Scenario, options: BackendOptions = BackendOptions()) -> Backend:
