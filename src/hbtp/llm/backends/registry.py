@@ -91,8 +91,12 @@ class BackendOptions:
     adapter: AdapterChoice = field(default_factory=AdapterChoice)  # local: the LoRA adapter (auto: the world's own)
 
 
-def make_backend(spec: LlmSpec | str, scenario: Scenario, options: BackendOptions = BackendOptions()) -> Backend:
-    """The backend named ``spec`` (see :data:`BACKENDS`), optionally recording to ``options.record``."""
+def make_backend(
+    spec: LlmSpec | str, scenario: Scenario, options: BackendOptions = BackendOptions(), *, instructions: bool = False
+) -> Backend:
+    """The backend named ``spec`` (see :data:`BACKENDS`), optionally recording to ``options.record``;
+    ``instructions``: it will read instructions too (a local model then also loads the companion of
+    its adapter that reads them, if it has one)."""
     spec = spec if isinstance(spec, LlmSpec) else LlmSpec.parse(spec)
     if spec.auto:
         raise InputError(f"{spec} is a mode of hbtp plan --llm, not a backend; give the backend alone")
@@ -126,7 +130,7 @@ def make_backend(spec: LlmSpec | str, scenario: Scenario, options: BackendOption
             prompt_cache=options.prompt_cache,
             constrain=options.constrain,
             adapter=adapter,
-            instruction_adapter=reader,
+            instruction_adapter=reader if instructions else None,
         )
     if options.record:
         backend = RecordingBackend(backend, options.record)
@@ -155,6 +159,6 @@ def make_goal_backend(spec: LlmSpec | str, scenario: Scenario, options: BackendO
             f"--llm {spec} answers plans, not goals; for --instruction choose local, openai, oracle or replay:FILE"
         )
     if spec.kind is not BackendKind.ORACLE:
-        return make_backend(spec, scenario, options)
+        return make_backend(spec, scenario, options, instructions=True)
     backend: Backend = InstructionOracle(scenario)
     return RecordingBackend(backend, options.record) if options.record else backend
