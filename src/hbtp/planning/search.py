@@ -291,15 +291,9 @@ class _Search(SearchState):
         """Regress ``condition`` through ``action`` and queue the result unless it is pruned."""
         if not condition.isdisjoint(action.delete):
             return
-        if self.partners is not None:
-            clashing = self.clashing.get(action.index)
-            if clashing is None:
-                clashing = self.clashing[action.index] = self.clashing_atoms(action)
-            if not clashing.isdisjoint(condition) and (
-                clashing is self.everything or not clashing & condition <= action.add
-            ):
-                self.pruned_mutex += 1
-                return
+        if self.partners is not None and self.clashes(condition, action):
+            self.pruned_mutex += 1
+            return
         rest = condition - action.add
         result = action.pre | rest
         nogoods = self.nogoods

@@ -142,9 +142,8 @@ class SearchState:
         self.watch = watch
         self.space = len(actions)
         self.partners = mutexes.partners if mutexes is not None else None
-        # Per action, the atoms mutex with one of its preconditions (everything when two of them are).
-        self.clashing: dict[int, frozenset[int]] = {}
-        self.everything = frozenset(range(len(task.atoms)))
+        # Per action, whether two of its preconditions are mutex (asked when first regressed through).
+        self.self_clashing: dict[int, bool] = {}
         self.nogoods = mutexes.nogoods_by_atom if mutexes is not None and mutexes.nogoods else None
         self.s0 = task.initial_state
         costs = config.costs
@@ -214,14 +213,21 @@ class SearchState:
         self.adders[atom] = entries
         return entries
 
-    def clashing_atoms(self, action: GroundAction) -> frozenset[int]:
-        """The atoms that a condition regressed through ``action`` may not keep: those mutex with a
-        precondition (a condition holds no mutex pair, so the precondition's own atoms never clash
-        with what the condition keeps); :attr:`everything` when the precondition holds a mutex pair."""
+    def clashes(self, condition: frozenset[int], action: GroundAction) -> bool:
+        """Whether ``condition`` regressed through ``action`` holds a mutex pair: an atom it keeps
+        (one ``action`` does not add) is mutex with a precondition, or two preconditions are (a
+        condition holds no mutex pair, so its own atoms never clash with each other). Asked atom by
+        atom of the condition (a few), never building the set of everything mutex with the
+        precondition: in a large world that set holds thousands of atoms per action."""
         assert self.partners is not None
-        partners = self.partners
-        found = frozenset().union(*(partners[atom] for atom in action.pre))
-        return found if found.isdisjoint(action.pre) else self.everything
+        partners, pre = self.partners, action.pre
+        clashing = self.self_clashing.get(action.index)
+        if clashing is None:
+            clashing = self.self_clashing[action.index] = any(not partners[p].isdisjoint(pre) for p in pre)
+        if clashing:
+            return bool(condition)
+        add = action.add
+        return any(atom not in add and not partners[atom].isdisjoint(pre) for atom in condition)
 
     def live_roots(self) -> list[frozenset[int]]:
         """The goal's disjuncts the search expands: those that no mutex rules out and whose
