@@ -108,8 +108,10 @@ def resolve_goal(task: GroundTask, goal: GoalSource) -> Goal:
     live: list[frozenset[int]] = []
     # A goal resolved against the same atoms (the task from another s0, when re-planning) has its
     # literals checked and spelled already; only what depends on s0 is worked out again.
-    checked = isinstance(goal, Goal) and _same_atoms(goal, task)
-    terms = goal.terms if isinstance(goal, Goal) and checked else goal_terms(task, goal)
+    if isinstance(goal, Goal) and _same_atoms(goal, task):
+        checked, terms = True, goal.terms
+    else:
+        checked, terms = False, goal_terms(task, goal)
     for term in terms:
         ids, missing = _term_ids(task, term, checked)
         if ids is None:

@@ -81,18 +81,21 @@ def world_key(domain_file: str | Path, problem_file: str | Path) -> str:
     return digest.hexdigest()[:32]
 
 
+def _shipped_folder() -> Path:
+    """Where the shipped adapters are (package data)."""
+    return Path(str(resources.files("hbtp.llm") / "adapters"))
+
+
 def shipped_adapter(scenario: str) -> Path | None:
     """The adapter shipped for a shipped scenario, if there is one."""
-    entry = resources.files("hbtp.llm") / "adapters" / f"{scenario}.gguf"
-    return Path(str(entry)) if entry.is_file() else None
+    entry = _shipped_folder() / f"{scenario}.gguf"
+    return entry if entry.is_file() else None
 
 
 def shipped_for_world(world: str) -> Path | None:
     """The shipped adapter made for the world ``world`` (its PDDL files' key), if there is one."""
-    folder = resources.files("hbtp.llm") / "adapters"
-    for entry in sorted(folder.iterdir(), key=lambda item: item.name):
-        if entry.name.endswith(".gguf") and not entry.name.endswith(INSTRUCTIONS_SUFFIX) and entry.is_file():
-            path = Path(str(entry))
+    for path in sorted(_shipped_folder().iterdir()):
+        if path.name.endswith(".gguf") and not path.name.endswith(INSTRUCTIONS_SUFFIX) and path.is_file():
             try:
                 made_for = read_metadata(path).get(KEY_WORLD)
             except (OSError, ValueError, struct.error):
@@ -213,8 +216,7 @@ def instruction_adapter(
     if choice.mode is not AdapterMode.AUTO or adapter is None or not adapter.name.endswith(".gguf"):
         return None
     companion = adapter.with_name(adapter.name.removesuffix(".gguf") + INSTRUCTIONS_SUFFIX)
-    shipped = Path(str(resources.files("hbtp.llm") / "adapters"))
-    if adapter.parent != shipped or not companion.is_file():
+    if adapter.parent != _shipped_folder() or not companion.is_file():
         return None
     reason = unfit(companion, world=world, base_sha256=base_sha256)
     if reason is not None:
