@@ -63,6 +63,11 @@ def test_a_taught_reply_is_constrained_to_the_plan_line(robothow_small: Scenario
     assert taught.completion_prompt == f"Goals: {GOAL}\nOptimal Actions:"
     assert taught.constraint is not None
     assert taught.constraint.gbnf.splitlines()[0] == plan_only
+    # no system message: the vocabulary, demonstrations and rules are a base model's
+    assert [m.role for m in taught.messages] == ["user"]
+    base = build_request(robothow_small.task, GOAL, [], PromptOptions(style=PromptStyle.COMPLETION))
+    assert [m.role for m in base.messages] == ["system", "user"]
+    assert "[Condition Predicates]" in base.messages[0].content
 
 
 def test_bounds_follow_the_demonstrations_shown() -> None:

@@ -13,8 +13,8 @@ from hbtp.domains import Scenario
 from hbtp.errors import InputError
 from hbtp.llm.grammar import SECTION_TITLES, GrammarCheck, check_reply
 from hbtp.llm.parse import parse_reply
-from hbtp.llm.vocabulary import vocabulary_of
 from hbtp.logic.atoms import parse_atom
+from hbtp.logic.names import names_of
 from hbtp.logic.task import GroundTask
 from hbtp.planning import Hints, resolve_hints
 
@@ -30,13 +30,19 @@ def check(text: str, task: GroundTask) -> GrammarCheck:
     return check_reply(parse_reply(text), task)
 
 
+def known_names(task: GroundTask) -> tuple[set[str], set[str], frozenset[str]]:
+    """The task's action names (``Walk_apple``), action predicates and objects."""
+    names = names_of(task)
+    return {a.underscored for a in names.actions}, set(names.action_predicates), names.symbols
+
+
 def assert_only_known(hints: Hints, task: GroundTask) -> None:
     """Every name of ``hints`` is in the task: resolving them reports nothing unknown."""
-    vocabulary = vocabulary_of(task)
+    actions, predicates, objects = known_names(task)
     assert resolve_hints(task, hints).unknown == ()
-    assert all(parse_atom(name).underscored in vocabulary.action_names for name in hints.path)
-    assert set(hints.predicates) <= vocabulary.predicate_names
-    assert set(hints.objects) <= vocabulary.object_names
+    assert all(parse_atom(name).underscored in actions for name in hints.path)
+    assert set(hints.predicates) <= predicates
+    assert set(hints.objects) <= objects
 
 
 # ---------------------------------------------------------------------------------- exact names
@@ -251,7 +257,8 @@ def test_nothing_unknown_ever_reaches_the_hints(robothow: Scenario, robowaiter: 
     rng = random.Random(1)
     for scenario in (robothow, robowaiter):
         task = scenario.task
-        actions = sorted(vocabulary_of(task).action_names)
+        known_actions, known_predicates, known_objects = known_names(task)
+        actions = sorted(known_actions)
         predicates = sorted(task.action_predicates)
         objects = sorted(task.objects)
         for _ in range(30):
@@ -265,18 +272,17 @@ def test_nothing_unknown_ever_reaches_the_hints(robothow: Scenario, robowaiter: 
             result = check(text, task)
             assert_only_known(result.hints, task)
             # every name given is accounted for: kept as is, repaired, or reported unknown
-            vocabulary = vocabulary_of(task)
             repaired = dict(repair.split(" -> ") for repair in result.repairs)
             assert all(before != after for before, after in repaired.items())
             parsed = parse_reply(text).hints
             for name in parsed.path:
                 with contextlib.suppress(InputError):
                     name = parse_atom(name).underscored
-                assert name in vocabulary.action_names or name in repaired or name in result.unknown, name
+                assert name in known_actions or name in repaired or name in result.unknown, name
             for name in parsed.predicates:
-                assert name in vocabulary.predicate_names or name in repaired or name in result.unknown, name
+                assert name in known_predicates or name in repaired or name in result.unknown, name
             for name in parsed.objects:
-                assert name in vocabulary.object_names or name in repaired or name in result.unknown, name
+                assert name in known_objects or name in repaired or name in result.unknown, name
             assert len(result.hints.path) == len(parsed.path) - sum(
                 1 for n in parsed.path if _underscored(n) in result.unknown
             )

@@ -27,6 +27,7 @@ from hbtp.llm.prompt import (
     retry_request,
 )
 from hbtp.llm.vocabulary import ANY, vocabulary_of
+from hbtp.logic.names import names_of
 from helpers import SCENARIOS
 
 log = logging.getLogger(__name__)
@@ -84,10 +85,11 @@ def test_vocabulary_categories_cover_the_argument_values(scenario: Scenario) -> 
                     assert value in categories[part.strip("<>")], (action.name, part)
                 elif not part.startswith("<"):
                     assert value == part, (action.name, part)
-    # the names a reply may use
-    assert vocabulary.action_names == {a.signature.underscored for a in task.actions}
-    assert vocabulary.predicate_names == set(task.action_predicates)
-    assert set(task.objects) <= vocabulary.object_names
+    # the names a reply may use (kept with the task's action names, which the checker reads)
+    names = names_of(task)
+    assert names.signatures == {a.signature for a in task.actions}
+    assert set(names.action_predicates) == set(task.action_predicates)
+    assert set(task.objects) <= names.symbols
 
 
 def test_robothow_vocabulary_entries(robothow: Scenario) -> None:

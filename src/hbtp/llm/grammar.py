@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from hbtp.datasets.reply import TITLES
 from hbtp.errors import InputError
 from hbtp.llm.parse import ParsedReply, underscored
-from hbtp.llm.vocabulary import as_names, vocabulary_of
+from hbtp.llm.vocabulary import as_names
 from hbtp.logic.atoms import Atom, parse_atom
 from hbtp.logic.names import ActionNames
 from hbtp.logic.tables import TaskTable
@@ -85,13 +85,12 @@ def _matchers(names: ActionNames) -> tuple[_Matcher, _Matcher]:
     """The predicate and object matchers (kept with the names: their memos grow as names are met)."""
 
     def build() -> tuple[_Matcher, _Matcher]:
-        vocabulary = vocabulary_of(names)
-        return _Matcher(vocabulary.predicate_names), _Matcher(vocabulary.object_names)
+        return _Matcher(frozenset(names.action_predicates)), _Matcher(names.symbols)
 
     return _MATCHERS.of(names, build)
 
 
-def _match_action(name: str, predicates: _Matcher, objects: _Matcher, action_names: frozenset[str]) -> Atom | None:
+def _match_action(name: str, predicates: _Matcher, objects: _Matcher, actions: frozenset[Atom]) -> Atom | None:
     try:
         atom = parse_atom(name)
     except InputError:
@@ -101,7 +100,7 @@ def _match_action(name: str, predicates: _Matcher, objects: _Matcher, action_nam
     if predicate is None or any(arg is None for arg in args):
         return None
     candidate = Atom(predicate, tuple(a for a in args if a is not None))
-    return candidate if candidate.underscored in action_names else None
+    return candidate if candidate in actions else None
 
 
 def check_reply(parsed: ParsedReply, task: GroundTask | ActionNames, *, path_only: bool = False) -> GrammarCheck:
@@ -115,7 +114,6 @@ def check_reply(parsed: ParsedReply, task: GroundTask | ActionNames, *, path_onl
     """
     names = as_names(task)
     predicates, objects = _matchers(names)
-    action_names = vocabulary_of(names).action_names
     repairs: list[str] = []
     unknown: list[str] = []
 
@@ -130,7 +128,7 @@ def check_reply(parsed: ParsedReply, task: GroundTask | ActionNames, *, path_onl
     path: list[str] = []
     for name in parsed.hints.path:
         written = underscored(name)  # the datasets' spelling, as the model was asked to write it
-        action = _match_action(name, predicates, objects, action_names)
+        action = _match_action(name, predicates, objects, names.signatures)
         if action is None:
             unknown.append(written)
             continue

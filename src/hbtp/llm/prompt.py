@@ -210,25 +210,21 @@ def build_request(
     scenario: str = "",
     avoid: Iterable[str] = (),
 ) -> Request:
-    """The first question for ``goal`` (round 0), in both shapes (the completion prompt of a taught
-    model is the question alone)."""
+    """The first question for ``goal`` (round 0), in both shapes. A taught model is asked the question
+    alone: its completion prompt has no demonstrations and its conversation no system message (the
+    vocabulary, demonstrations and rules a base model reads), which in a large world would cost more
+    to write than the model takes to answer."""
     shown = 0 if options.taught else options.examples
     examples = retrieve_examples(goal, pool, shown, options.exclude_same_goal, options.retrieval)
-    demos = "\n\n".join(format_example(r) for r in examples)
     closest_last = "\n\n".join(format_example(r) for r in reversed(examples))
     goal_text = _normal_goal(goal)
     avoid_text = _avoid_text(avoid)
-    rules = RULES.format(examples=", ".join(_format_examples(task)))
-    system = "\n\n".join(
-        part
-        for part in (scenario_text(task, options.include_objects), f"[Few-shot Demonstrations]\n{demos}", rules)
-        if part
-    )
+    system = () if options.taught else (Message("system", _system_text(task, examples, options)),)
     completion = (closest_last + "\n\n" if closest_last else "") + (avoid_text + "\n" if avoid_text else "")
     completion += taught_prompt(goal_text)
     constraint = _constraint(task, examples, options)
     return Request(
-        messages=(Message("system", system), Message("user", f"Goals: {goal_text}" + _suffix(avoid_text))),
+        messages=(*system, Message("user", f"Goals: {goal_text}" + _suffix(avoid_text))),
         completion_prompt=completion,
         goal=goal_text,
         scenario=scenario,
@@ -237,6 +233,14 @@ def build_request(
         constraint=constraint,
         taught=options.taught,
     )
+
+
+def _system_text(task: GroundTask | ActionNames, examples: Sequence[Record], options: PromptOptions) -> str:
+    """A base model's system message: the vocabulary, the demonstrations and the rules."""
+    demos = "\n\n".join(format_example(r) for r in examples)
+    rules = RULES.format(examples=", ".join(_format_examples(task)))
+    parts = (scenario_text(task, options.include_objects), f"[Few-shot Demonstrations]\n{demos}", rules)
+    return "\n\n".join(part for part in parts if part)
 
 
 def _constraint(

@@ -23,9 +23,6 @@ class Vocabulary:
     condition_predicates: tuple[str, ...]  # "IsOn_<GRABBABLE>_<SURFACE>"
     action_predicates: tuple[str, ...]  # "Walk_<ALL_OBJECTS> (15)"
     categories: tuple[tuple[str, tuple[str, ...]], ...]  # ("GRABBABLE", ("apple", ...))
-    action_names: frozenset[str]  # "Walk_apple"
-    predicate_names: frozenset[str]  # action predicates: "Walk"
-    object_names: frozenset[str]  # objects and constants
 
 
 def _describe(values: set[str], categories: dict[str, tuple[str, ...]], used: dict[str, tuple[str, ...]]) -> str:
@@ -80,7 +77,4 @@ def _vocabulary(names: ActionNames) -> Vocabulary:
         condition_predicates=tuple(conditions),
         action_predicates=tuple(actions),
         categories=tuple(sorted(used.items())),
-        action_names=names.underscored,
-        predicate_names=frozenset(names.action_predicates),
-        object_names=names.symbols,
     )

@@ -46,11 +46,6 @@ class ActionNames:
         return frozenset(self.objects) | frozenset(self.constants)
 
     @cached_property
-    def underscored(self) -> frozenset[str]:
-        """Every action name in the datasets' spelling (``Walk_apple``)."""
-        return frozenset(a.underscored for a in self.actions)
-
-    @cached_property
     def signatures(self) -> frozenset[Atom]:
         return frozenset(self.actions)
 
