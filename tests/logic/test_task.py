@@ -235,6 +235,20 @@ def test_task_tables_are_built_once_per_task_and_not_pickled(kitchen: GroundTask
     assert len(builds) == 3
 
 
+def test_a_task_table_is_built_with_the_collector_paused(kitchen: GroundTask) -> None:
+    import gc
+
+    from hbtp.logic.tables import TaskTable
+
+    table: TaskTable[bool] = TaskTable("whether the collector ran while it was built")
+    assert gc.isenabled()
+    assert table.of(kitchen, gc.isenabled) is False
+    assert gc.isenabled()  # back as it was
+    with pytest.raises(ZeroDivisionError):
+        table.of(kitchen, lambda: bool(1 / 0), key="failing")
+    assert gc.isenabled()
+
+
 def test_relevant_actions_follow_achievers_back_from_the_goal() -> None:
     from hbtp.domains import DomainBuilder
 
