@@ -15,7 +15,7 @@ from hbtp.cli import EXIT_OK, main
 from hbtp.datasets import load_dataset
 from hbtp.domains import load_scenario
 from hbtp.domains.grounding import Selection, ground
-from hbtp.domains.pruned import PrunedWorld
+from hbtp.domains.pruned import PrunedWorld, _named, lifted_names
 from hbtp.domains.scenarios import Scenario, ScenarioOptions, read_pddl
 from hbtp.llm.backend import PromptStyle, Reply, Request
 from hbtp.llm.backends.oracle import OracleBackend
@@ -180,3 +180,38 @@ def test_a_selection_grounds_what_its_filter_grounds(domain: str, problem: str) 
         plain = ground(pddl.domain, pddl.problem, only=lambda s, a, c=chosen: c(s, a), reachable_only=True)
         assert _action_facts(fast) == _action_facts(plain)
         assert fast.atoms == plain.atoms
+
+
+IPC = Path(__file__).resolve().parents[2] / ".." / "shared" / "benchmarks" / "ipc"
+
+
+@pytest.mark.skipif(not IPC.is_dir(), reason="the IPC benchmark files (../shared/benchmarks/ipc) are absent")
+@pytest.mark.parametrize(
+    ("folder", "problem"),
+    [
+        ("elevators-opt08-strips", "p01.pddl"),  # costs from :init, some undefined (dropped)
+        ("barman-opt11-strips", "pfile01-001.pddl"),
+        ("parking-opt11-strips", "pfile03-011.pddl"),
+        ("scanalyzer-08-strips", "p01.pddl"),
+        ("depot", "p01.pddl"),
+    ],
+)
+def test_listed_names_come_in_the_grounded_order_with_the_grounded_costs(folder: str, problem: str) -> None:
+    pddl = read_pddl(IPC / folder / "domain.pddl", IPC / folder / problem)
+    listed = lifted_names(pddl)
+    full = names_of(ground(pddl.domain, pddl.problem))
+    assert list(listed.actions) == sorted(listed.actions, key=str)
+    # the listing keeps the actions that change nothing (drive from a place to itself), which a grounding drops
+    cost = dict(zip(listed.actions, listed.costs, strict=True))
+    assert [cost.get(action) for action in full.actions] == list(full.costs)
+
+
+def test_names_that_sort_before_the_comma_are_ordered_by_the_names_themselves() -> None:
+    # "go!(b)" < "go(b!)" < "go(b)" as names, while the schemas and arguments sort the other way.
+    pddl = load_scenario("robowaiter").pddl
+    bindings = {"go": ((("b",), 1), (("b!",), 1)), "go!": ((("b",), 2),)}
+    named = _named(bindings, {}, pddl)
+    assert [str(atom) for atom, _ in named] == ["go!(b)", "go(b!)", "go(b)"]
+    assert [cost for _, cost in named] == [2, 1, 1]
+    plain = _named({"go": ((("b",), 1), (("bb",), 1)), "go_on": ((("a",), 2),)}, {}, pddl)
+    assert [str(atom) for atom, _ in plain] == ["go(b)", "go(bb)", "go_on(a)"]

@@ -53,6 +53,16 @@ Op = Callable[[Binding, Effects], None]
 _Segment = tuple[list[tuple[str, ...]], tuple[Check, ...]]  # a forall's values, with their checks
 
 
+@dataclass(frozen=True, slots=True)
+class FixedCost:
+    """The operation of a cost effect by a number: it adds ``amount`` under every binding."""
+
+    amount: int
+
+    def __call__(self, binding: Binding, effects: Effects) -> None:
+        effects.costs.append(self.amount)
+
+
 class UndefinedCost(Exception):
     """A ground action's cost names a function value that :init does not define."""
 
@@ -66,6 +76,9 @@ class CompiledSchema:
     fluent: tuple[FluentPart, ...]
     ops: tuple[Op, ...]
     cost_ops: tuple[Op, ...]
+    #: Every fluent part is a (possibly negated) fluent atom: it never rules a binding out, so a
+    #: binding's existence and cost do not depend on it.
+    fluent_atoms_only: bool = False
 
 
 class Compiler:
@@ -91,7 +104,16 @@ class Compiler:
             fluent=tuple(self._compile_fluent(part, schema) for part in fluent_parts),
             ops=tuple(self._compile_effect(schema.effect, schema, outer, False)),
             cost_ops=tuple(self._compile_effect(schema.effect, schema, outer, True)),
+            fluent_atoms_only=all(self._is_fluent_literal(part) for part in fluent_parts),
         )
+
+    def _is_fluent_literal(self, formula: Formula) -> bool:
+        """``formula`` is a fluent literal, or one behind an ``imply`` over statics: :meth:`_compile_fluent`
+        makes it a part that never rules a binding out."""
+        if isinstance(formula, Imply) and is_static(formula.antecedent, self.fluent):
+            return self._is_fluent_literal(formula.consequent)
+        atom = formula.operand if isinstance(formula, Not) else formula
+        return isinstance(atom, AtomFormula) and atom.predicate in self.fluent
 
     def _compile_fluent(self, formula: Formula, schema: ActionSchema) -> FluentPart:
         """:meth:`simplify` of ``formula``, made quicker for a fluent atom or an ``imply`` over statics."""
@@ -193,8 +215,7 @@ class Compiler:
     def _cost_op(self, effect: CostEffect, schema: ActionSchema) -> Op:
         amount = effect.amount
         if isinstance(amount, int):
-            fixed = amount
-            return lambda binding, effects: effects.costs.append(fixed)
+            return FixedCost(amount)
         predicate, args, numeric = amount.predicate, getter(amount.terms), self.numeric
 
         def cost(binding: Binding, effects: Effects) -> None:

@@ -10,12 +10,13 @@ when only what is reachable from s0 is grounded, the actions kept are counted ag
 
 from __future__ import annotations
 
+import contextlib
 import logging
 from collections.abc import Container, Iterator
 
 from hbtp.domains.alternatives import Effects, TooManyAlternatives, alternatives, variants
-from hbtp.domains.ground_compile import Compiler, UndefinedCost
-from hbtp.domains.ground_context import LOGGER, Key, Prepared, Scope, Selection, Work
+from hbtp.domains.ground_compile import Compiler, FixedCost, Op, UndefinedCost
+from hbtp.domains.ground_context import LOGGER, Binding, Key, Prepared, Scope, Selection, Work
 from hbtp.domains.ground_estimate import LIMIT_VARIABLE
 from hbtp.domains.ground_join import Joiner
 from hbtp.domains.lifted import MAX_ACTION_COST, ActionSchema
@@ -66,7 +67,7 @@ class Grounder:
             return
         counting = self.counting
         names = self._alternative_names(schema)
-        for key, found in self.build(schema, costs_only=False):
+        for key, found in self.build(schema):
             number = 0
             for options, add, delete, cost in found:
                 for pre in options:
@@ -105,50 +106,70 @@ class Grounder:
                 f"{Atom(schema.name, key)} is action {self.kept:,}"
             )
 
-    def build(
-        self, schema: ActionSchema, costs_only: bool, warn: bool = True, skip: Container[tuple[str, ...]] = ()
-    ) -> Iterator[Built]:
+    def build(self, schema: ActionSchema, warn: bool = True, skip: Container[tuple[str, ...]] = ()) -> Iterator[Built]:
         """The ground actions of ``schema``, per binding: its arguments and its variants
         (:func:`~hbtp.domains.alternatives.variants`), each with its precondition's alternatives, add,
-        delete and cost; those whose cost is undefined are left out with a warning. With
-        ``costs_only``, effects are not computed and each binding has one variant, whose cost is the
-        action's when no conditional effect over fluents fires. Bindings in ``skip`` are passed over."""
+        delete and cost; those whose cost is undefined are left out with a warning. Bindings in
+        ``skip`` are passed over."""
+        with self._located(schema):
+            compiled = self.compiler.compile(schema)
+            dropped: list[str] = []
+            for key, binding, pre in self.joiner.candidates(schema, compiled.static, compiled.fluent, skip):
+                effects = self._effects(compiled.ops, binding, dropped)
+                if effects is None:
+                    continue
+                found = [(pre, effects)] if not effects.cases else variants(pre, effects, schema.name)
+                yield (
+                    key,
+                    [
+                        (alternatives(v), done.add, done.delete, self._cost(schema, key, done.costs))
+                        for v, done in found
+                    ],
+                )
+            if warn:
+                _warn_dropped(schema, dropped)
+
+    def costs(self, schema: ActionSchema) -> Iterator[tuple[tuple[str, ...], int]]:
+        """The bindings :meth:`build` gives, each with its cost when no conditional effect over fluents
+        fires, without building effects (nor, when no fluent part of the precondition can rule a
+        binding out, the fluent precondition): what listing the actions' names needs."""
+        with self._located(schema):
+            compiled = self.compiler.compile(schema)
+            fluent = () if compiled.fluent_atoms_only else compiled.fluent
+            fixed = None
+            if all(isinstance(op, FixedCost) for op in compiled.cost_ops):  # the same cost for every binding
+                fixed = self._cost(schema, (), [op.amount for op in compiled.cost_ops if isinstance(op, FixedCost)])
+            dropped: list[str] = []
+            for key, binding, _ in self.joiner.candidates(schema, compiled.static, fluent, ()):
+                if fixed is not None:
+                    yield key, fixed
+                    continue
+                effects = self._effects(compiled.cost_ops, binding, dropped)
+                if effects is not None:
+                    yield key, self._cost(schema, key, effects.costs)
+            _warn_dropped(schema, dropped)
+
+    @contextlib.contextmanager
+    def _located(self, schema: ActionSchema) -> Iterator[None]:
+        """Too many alternatives in ``schema``: a :class:`GroundingError` saying where it is."""
         try:
-            yield from self._build(schema, costs_only, warn, skip)
+            yield
         except TooManyAlternatives as error:
             source = self.domain.source
             where = f"{source}:{schema.line}:{schema.column}" if schema.column else f"{source}:{schema.line}"
             raise GroundingError(f"{where}: {error}" if source and schema.line else str(error)) from None
 
-    def _build(
-        self, schema: ActionSchema, costs_only: bool, warn: bool, skip: Container[tuple[str, ...]]
-    ) -> Iterator[Built]:
-        compiled = self.compiler.compile(schema)
-        ops = compiled.cost_ops if costs_only else compiled.ops
-        dropped: list[str] = []
-        for key, binding, pre in self.joiner.candidates(schema, compiled.static, compiled.fluent, skip):
-            effects = Effects()
-            try:
-                for op in ops:
-                    op(binding, effects)
-            except UndefinedCost as undefined:
-                dropped.append(undefined.args[0])
-                continue
-            found = [(pre, effects)] if costs_only or not effects.cases else variants(pre, effects, schema.name)
-            yield (
-                key,
-                [(alternatives(v), done.add, done.delete, self._cost(schema, key, done.costs)) for v, done in found],
-            )
-        if dropped and warn:
-            # Fast Downward's translator only instantiates reachable actions, and fails on one whose cost
-            # is undefined; hbtp grounds from static facts alone, so it drops them (elevators' slow lifts).
-            log.warning(
-                "action %r (line %d): %d ground action(s) dropped, their cost is not defined in :init (%s)",
-                schema.name,
-                schema.line,
-                len(dropped),
-                listing(dropped, 3),
-            )
+    @staticmethod
+    def _effects(ops: tuple[Op, ...], binding: Binding, dropped: list[str]) -> Effects | None:
+        """What ``ops`` do under ``binding``; ``None`` (the cost noted in ``dropped``) when the cost is undefined."""
+        effects = Effects()
+        try:
+            for op in ops:
+                op(binding, effects)
+        except UndefinedCost as undefined:
+            dropped.append(undefined.args[0])
+            return None
+        return effects
 
     def _cost(self, schema: ActionSchema, key: tuple[str, ...], costs: list[int]) -> int:
         cost = sum(costs) if self.uses_costs else 1
@@ -157,6 +178,19 @@ class Grounder:
                 f"action {Atom(schema.name, key)} costs {cost}, more than the maximum {MAX_ACTION_COST}"
             )
         return cost
+
+
+def _warn_dropped(schema: ActionSchema, dropped: list[str]) -> None:
+    if dropped:
+        # Fast Downward's translator only instantiates reachable actions, and fails on one whose cost
+        # is undefined; hbtp grounds from static facts alone, so it drops them (elevators' slow lifts).
+        log.warning(
+            "action %r (line %d): %d ground action(s) dropped, their cost is not defined in :init (%s)",
+            schema.name,
+            schema.line,
+            len(dropped),
+            listing(dropped, 3),
+        )
 
 
 def changes(needs: frozenset[Key], add: set[Key], delete: set[Key]) -> tuple[frozenset[Key], frozenset[Key]]:

@@ -91,7 +91,7 @@ def _reach_schema(
     """Add to ``new`` what the ground actions of ``schema`` joined so far, but not ``taken`` in an
     earlier round, add beyond ``known``, counting them against the limit (those that change
     nothing are not counted); they join ``taken``."""
-    for key, found in grounder.build(schema, costs_only=False, warn=False, skip=taken):
+    for key, found in grounder.build(schema, warn=False, skip=taken):
         taken.add(key)
         changing = False
         for options, add, delete, _cost in found:

@@ -178,8 +178,7 @@ def action_bindings(
     try:
         for schema in domain.actions:
             grounder.work.check_deadline()
-            built = grounder.build(schema, costs_only=True)
-            found[schema.name] = tuple(sorted((key, variants[0][3]) for key, variants in built if variants))
+            found[schema.name] = tuple(sorted(grounder.costs(schema)))
     except TimeLimitReached as stop:
         stopped = str(stop)
     if stopped:

@@ -29,6 +29,7 @@ and left out when its part is grounded.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import logging
 import time
 from collections.abc import Callable, Sequence
@@ -38,6 +39,7 @@ from pathlib import Path
 from hbtp.collector import collector_paused
 from hbtp.deadline import Deadline, check_deadline
 from hbtp.domains.grounding import (
+    ActionBindings,
     ActionFilter,
     Selection,
     action_bindings,
@@ -170,16 +172,7 @@ def lifted_names(pddl: Pddl, options: ScenarioOptions | None = None, deadline: D
     options = options or ScenarioOptions()
     domain, problem = pddl.domain, pddl.problem
     bindings = action_bindings(domain, problem, keep_fluent=options.keep_fluent, deadline=deadline)
-    left_out = _self_placing(pddl, options)
-    named = sorted(
-        (
-            (Atom(schema, args), cost)
-            for schema, found in bindings.items()
-            for args, cost in found
-            if not (schema in left_out and left_out[schema](args))
-        ),
-        key=lambda item: str(item[0]),
-    )
+    named = _named(bindings, _self_placing(pddl, options), pddl)
     fluent = frozenset(p for p in fluent_predicates(domain, frozenset(options.keep_fluent)) if p in domain.predicates)
     static_unary: dict[str, list[str]] = {}
     for fact in problem.init:
@@ -198,6 +191,28 @@ def lifted_names(pddl: Pddl, options: ScenarioOptions | None = None, deadline: D
         condition_slots={p: tuple(frozenset(s) for s in slots.get(p, ())) for p in sorted(fluent)},
         categories=categories,
     )
+
+
+def _named(
+    bindings: ActionBindings, left_out: dict[str, Callable[[Sequence[str]], bool]], pddl: Pddl
+) -> list[tuple[Atom, int]]:
+    """The actions of ``bindings`` not ``left_out``, with their costs, in the order of their names
+    (``Walk(apple)``), as a grounding orders them.
+
+    Each schema's bindings are sorted by their arguments. When no name has a character that sorts
+    before the comma (PDDL names are letters, digits, ``-`` and ``_``), taking the schemas by name
+    already orders the actions as their names do, the separators ``(``, ``,`` and ``)`` sorting
+    before any character of a name; otherwise they are sorted by their names."""
+    named = [
+        (Atom(schema, args), cost)
+        for schema, found in sorted(bindings.items())
+        for args, cost in found
+        if not (schema in left_out and left_out[schema](args))
+    ]
+    symbols = itertools.chain(bindings, (o.name for o in pddl.problem.objects), (c.name for c in pddl.domain.constants))
+    if any(min(name, default="~") <= "," for name in symbols):
+        named.sort(key=lambda item: str(item[0]))
+    return named
 
 
 def _self_placing(pddl: Pddl, options: ScenarioOptions) -> dict[str, Callable[[Sequence[str]], bool]]:
