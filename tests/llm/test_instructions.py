@@ -17,6 +17,7 @@ from hbtp.bench.instructions import InstructionsBench, holds_by_name, normal_for
 from hbtp.cli import main
 from hbtp.datasets.instructions import load_instructions
 from hbtp.domains import Scenario, load_scenario
+from hbtp.domains.words import words_for
 from hbtp.errors import BackendError, InputError
 from hbtp.llm.backend import PromptStyle, Reply, Request
 from hbtp.llm.backends.oracle import InstructionOracle
@@ -427,3 +428,51 @@ def test_false_refusal_knows_the_last_word_of_a_name(virtualhome: Scenario) -> N
     assert false_refusal(virtualhome, "put the piano in the fridge", "piano") is None
     assert false_refusal(virtualhome, "put the grand piano in the fridge", "grand piano") is None
     assert false_refusal(virtualhome, "put the milk in the piano", "milk piano") is None
+
+
+@pytest.mark.parametrize(
+    ("instruction", "answer", "goal"),
+    [
+        # a literal about what the instruction never names is left out
+        ("It's stuffy in here, could you get the AC running?", "Active_AC & IsClean_Chairs", "Active_AC"),
+        ("Could you brew a fresh cup of coffee?", "Exists_Coffee & On_NFCJuice_CoffeeStation", "Exists_Coffee"),
+        # in each conjunction of a disjunction
+        (
+            "Hold the milk, or else turn the temperature down.",
+            "Holding_Milk | Low_ACTemperature & Holding_VacuumCup",
+            "Holding_Milk | Low_ACTemperature",
+        ),
+        # named by a synonym, a number or in the plural: kept
+        (
+            "Switch on the air conditioning and wipe table 1.",
+            "Active_AC & IsClean_Table1",
+            "Active_AC & IsClean_Table1",
+        ),
+        (
+            "A coffee on tables 1 and 2, please.",
+            "On_Coffee_Table1 & On_Coffee_Table2",
+            "On_Coffee_Table1 & On_Coffee_Table2",
+        ),
+        # nothing named at all: nothing to judge by, the answer stands
+        ("Make it cooler in here.", "Active_AC & Low_ACTemperature", "Active_AC & Low_ACTemperature"),
+    ],
+)
+def test_a_taught_models_literals_about_what_the_instruction_never_names_are_left_out(
+    robowaiter: Scenario, instruction: str, answer: str, goal: str
+) -> None:
+    choice = goal_from_instruction(robowaiter, instruction, Taught([answer]))
+    assert choice.goal == goal
+    assert choice.attempts[0].reply == answer  # the model's own answer is kept in the record
+    kept = goal_from_instruction(robowaiter, instruction, Taught([answer]), options=InstructOptions(drop_unsaid=False))
+    assert kept.goal == answer
+
+
+def test_the_words_of_a_world_tell_which_objects_a_text_names(robowaiter: Scenario) -> None:
+    words = words_for(robowaiter)
+    assert words.named_in("Turn on the air conditioner") >= {"AC"}
+    assert words.named_in("the AC, please") >= {"AC"}
+    assert "Table1" in words.named_in("the tables 1 and 2")
+    assert "Table1" in words.named_in("wipe the first table")
+    assert "Table1" not in words.named_in("put it on their table")
+    assert "NFCJuice" in words.named_in("the not-from-concentrate juice")
+    assert "self" not in words.named_in("you")  # the robot is never named

@@ -112,6 +112,32 @@ class Words:
         """How the object ``name`` is said."""
         return self.objects.get(name) or noun_of(name, self.data)
 
+    def named_in(self, text: str) -> frozenset[str]:
+        """The objects (the robot aside) that ``text`` calls by one of their names or synonyms: the
+        name's words, articles aside, in a row ("the AC" and "the air conditioner" name ``AC``; "tables
+        1" names ``Table1``, a plural ``s`` or ``es`` aside)."""
+        said = _spoken(text)
+        return frozenset(
+            name
+            for name, noun in self.objects.items()
+            if not noun.agent and any(_within(_spoken(spoken), said) for spoken in noun.names)
+        )
+
+
+def _spoken(text: str) -> tuple[str, ...]:
+    """The lower-case words of ``text``, determiners left out."""
+    return tuple(w for w in re.findall(r"[a-z0-9]+", text.lower()) if w not in _DETERMINERS)
+
+
+def _within(run: tuple[str, ...], words: tuple[str, ...]) -> bool:
+    """Whether ``run`` (not empty) occurs in ``words`` as consecutive words, each also in the plural
+    (an ``s`` or ``es`` added)."""
+    width = len(run)
+    return width > 0 and any(
+        all(said in (name, name + "s", name + "es") for name, said in zip(run, words[i : i + width], strict=True))
+        for i in range(len(words) - width + 1)
+    )
+
 
 # ------------------------------------------------------------------ the data
 

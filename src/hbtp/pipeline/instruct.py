@@ -39,6 +39,7 @@ from hbtp.domains.words import words_for
 from hbtp.errors import BackendTimeLimit, InputError
 from hbtp.llm.backend import Backend, PromptStyle, Request
 from hbtp.llm.goal_prompt import (
+    PLACEHOLDERS,
     STOPWORDS,
     Connectives,
     Example,
@@ -70,6 +71,9 @@ class InstructOptions:
     constrain: bool = True  # constrained decoding (grammar / JSON schema)
     seed: int = 0
     cover: bool = True  # extend a completion model's goal to the objects the instruction names
+    #: Drop a taught model's literals about objects the instruction does not name (when it names
+    #: those of other literals of the same conjunction): :func:`unsaid_dropped`.
+    drop_unsaid: bool = True
 
 
 @dataclass(frozen=True)
@@ -207,6 +211,8 @@ def goal_from_instruction(
         spent += reply.seconds
         proposed = goal_reply(reply.text)
         lacking = refusal_of(proposed) if taught else None
+        if taught and lacking is None and options.drop_unsaid:
+            proposed = unsaid_dropped(scenario, text, proposed)
         verdict = _verdict(scenario, text, proposed, lacking)
         attempts.append(GoalAttempt(number, reply.text, "" if lacking else proposed, verdict.objections,
                                     verdict.doubtful, reply.seconds))  # fmt: skip
@@ -249,6 +255,37 @@ def false_refusal(scenario: Scenario, text: str, lacking: str) -> str | None:
             if words and (wanted == words or wanted == words[-1:]):
                 return f"refused {lacking!r}, which {scenario.name!r} has ({name})"
     return None
+
+
+def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
+    """``goal`` without the literals about objects the instruction does not name, in each conjunction
+    that also has literals about objects it does name (by the world's words for them,
+    :meth:`hbtp.domains.words.Words.named_in`, or their spelling). A taught model that has written
+    the literal asked for tends to go on with one more ("switch on the AC": ``Active_AC &
+    IsClean_Chairs``). A literal with no object but the robot or a placeholder is kept; a goal that
+    does not parse is returned as it is, for the checks to refuse."""
+    try:
+        terms = parse_goal(goal)
+    except InputError:
+        return goal
+    words = words_for(scenario)
+    named = words.named_in(text) | mentioned_objects(scenario.task, [text])
+    spoken = {name for name in named if not words.noun(name).agent}
+
+    def about(literal: Atom) -> set[str]:
+        return {x for x in literal.args if x.lower() not in PLACEHOLDERS and not words.noun(x).agent}
+
+    kept, dropped = [], []
+    for term in terms:
+        said = [literal for literal in term if not about(literal) or about(literal) & spoken]
+        if any(about(literal) for literal in said) and len(said) < len(term):
+            dropped += [literal.underscored for literal in term if literal not in said]
+            term = tuple(said)
+        kept.append(term)
+    if not dropped:
+        return goal
+    log.info("instruction: left out %s (the instruction names none of their objects)", ", ".join(dropped))
+    return format_goal(kept)
 
 
 def _words(text: str) -> list[str]:
