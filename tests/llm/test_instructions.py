@@ -471,8 +471,29 @@ def test_the_words_of_a_world_tell_which_objects_a_text_names(robowaiter: Scenar
     words = words_for(robowaiter)
     assert words.named_in("Turn on the air conditioner") >= {"AC"}
     assert words.named_in("the AC, please") >= {"AC"}
+    assert words.named_in("Switch on the AC") >= {"AC"}  # "on" + "ac" is not a plural of "on"
+    assert words.named_in("the AD calcium milk and the milky drink") == {"ADMilk", "MilkDrink"}  # not Milk
     assert "Table1" in words.named_in("the tables 1 and 2")
     assert "Table1" in words.named_in("wipe the first table")
     assert "Table1" not in words.named_in("put it on their table")
     assert "NFCJuice" in words.named_in("the not-from-concentrate juice")
     assert "self" not in words.named_in("you")  # the robot is never named
+
+
+def test_a_taught_conjunction_that_leaves_out_a_named_object_is_continued(robowaiter: Scenario) -> None:
+    """ "the first table" names Table1 by the world's words only (not by its spelling): a taught model's
+    goal without it is asked to go on with a literal over it, in the same taught prompt."""
+    backend = Taught(["Active_AC", "IsClean_Table1"])
+    choice = goal_from_instruction(robowaiter, "Switch on the AC and wipe the first table.", backend)
+    assert set((choice.goal or "").split(" & ")) == {"Active_AC", "IsClean_Table1"}
+    first, second = backend.requests
+    assert second.taught
+    assert second.completion_prompt == first.completion_prompt + " Active_AC &"
+    assert second.constraint is not None
+    assert "Table1" in second.constraint.gbnf
+    assert "IsClean_Floor" not in second.constraint.gbnf  # only literals over the missing object
+    # nothing is missing: nothing more is asked
+    done = Taught(["Active_AC & IsClean_Table1"])
+    goal = goal_from_instruction(robowaiter, "Switch on the AC and wipe the first table.", done).goal
+    assert set((goal or "").split(" & ")) == {"Active_AC", "IsClean_Table1"}
+    assert len(done.requests) == 1

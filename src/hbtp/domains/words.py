@@ -115,13 +115,36 @@ class Words:
     def named_in(self, text: str) -> frozenset[str]:
         """The objects (the robot aside) that ``text`` calls by one of their names or synonyms: the
         name's words, articles aside, in a row ("the AC" and "the air conditioner" name ``AC``; "tables
-        1" names ``Table1``, a plural ``s`` or ``es`` aside)."""
+        1" names ``Table1``, a plural ``s`` or ``es`` aside), or spells it in up to three words ("kitchen
+        cabinet" names ``kitchencabinet``). The longest names are read first, and
+        words read as one name are not read again as part of another ("the AD calcium milk" names
+        ``ADMilk``, not ``Milk`` too)."""
         said = _spoken(text)
-        return frozenset(
-            name
+        found = [
+            (start, len(words), name)
             for name, noun in self.objects.items()
-            if not noun.agent and any(_within(_spoken(spoken), said) for spoken in noun.names)
-        )
+            if not noun.agent
+            for words in {_spoken(spoken) for spoken in noun.names}
+            for start in _starts(words, said)
+        ]
+        spelled = {
+            re.sub(r"[^a-z0-9]", "", name.lower()): name for name, noun in self.objects.items() if not noun.agent
+        }
+        for start in range(len(said)):  # or spelled: "kitchen cabinet" for kitchencabinet
+            for width in (1, 2, 3):
+                joined = "".join(said[start : start + width])
+                forms = (joined, joined.removesuffix("s"), joined.removesuffix("es"))
+                name = next((spelled[form] for form in forms if form in spelled), None)
+                if name is not None and start + width <= len(said):
+                    found.append((start, width, name))
+        taken: set[int] = set()
+        named: set[str] = set()
+        for start, width, name in sorted(found, key=lambda m: (-m[1], m[0], m[2])):
+            span = set(range(start, start + width))
+            if not span & taken:
+                taken |= span
+                named.add(name)
+        return frozenset(named)
 
 
 def _spoken(text: str) -> tuple[str, ...]:
@@ -129,14 +152,17 @@ def _spoken(text: str) -> tuple[str, ...]:
     return tuple(w for w in re.findall(r"[a-z0-9]+", text.lower()) if w not in _DETERMINERS)
 
 
-def _within(run: tuple[str, ...], words: tuple[str, ...]) -> bool:
-    """Whether ``run`` (not empty) occurs in ``words`` as consecutive words, each also in the plural
+def _starts(run: tuple[str, ...], words: tuple[str, ...]) -> list[int]:
+    """Where ``run`` (not empty) occurs in ``words`` as consecutive words, each also in the plural
     (an ``s`` or ``es`` added)."""
     width = len(run)
-    return width > 0 and any(
-        all(said in (name, name + "s", name + "es") for name, said in zip(run, words[i : i + width], strict=True))
+    if not width:
+        return []
+    return [
+        i
         for i in range(len(words) - width + 1)
-    )
+        if all(said in (name, name + "s", name + "es") for name, said in zip(run, words[i : i + width], strict=True))
+    ]
 
 
 # ------------------------------------------------------------------ the data

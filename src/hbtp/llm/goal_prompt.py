@@ -409,11 +409,13 @@ def _taught_goal_request(
     )
 
 
-def named_atoms(task: GroundTask, instruction: str) -> tuple[frozenset[str], list[Atom]]:
-    """The objects the instruction names (placeholders aside) and the fluent atoms over them and
-    the placeholders."""
+def named_atoms(
+    task: GroundTask, instruction: str, also: frozenset[str] = frozenset()
+) -> tuple[frozenset[str], list[Atom]]:
+    """The objects the instruction names (placeholders aside; with ``also``, objects named
+    otherwise) and the fluent atoms over them and the placeholders."""
     placeholders = _placeholders(task)
-    named = mentioned_objects(task, [instruction]) - placeholders
+    named = (mentioned_objects(task, [instruction]) | also) - placeholders
     return named, [a for a in _fluent_atoms(task) if all(x in named or x in placeholders for x in a.args)]
 
 

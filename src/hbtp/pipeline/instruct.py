@@ -225,9 +225,9 @@ def goal_from_instruction(
         rejected.append(Rejected(proposed or reply.text.strip()[:80], "; ".join(verdict.objections), verdict.never))
         if lacking is not None:  # a refusal overruled: refusals are not offered again
             ask = partial(ask, refusal=False)
-    cover = options.cover and not taught and backend.prompt_style is PromptStyle.COMPLETION
+    cover = options.cover and backend.prompt_style is PromptStyle.COMPLETION
     if cover and attempts and attempts[-1].accepted:
-        spent += _cover(scenario, text, backend, request, attempts, deadline)
+        spent += _cover(scenario, text, backend, request, attempts, deadline, by_words=taught)
     return _choose(text, attempts, spent)
 
 
@@ -259,8 +259,8 @@ def false_refusal(scenario: Scenario, text: str, lacking: str) -> str | None:
 
 def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
     """``goal`` without the literals about objects the instruction does not name, in each conjunction
-    that also has literals about objects it does name (by the world's words for them,
-    :meth:`hbtp.domains.words.Words.named_in`, or their spelling). A taught model that has written
+    that also has literals about objects it does name (by the world's words for them or their
+    spelling, :meth:`hbtp.domains.words.Words.named_in`). A taught model that has written
     the literal asked for tends to go on with one more ("switch on the AC": ``Active_AC &
     IsClean_Chairs``). A literal with no object but the robot or a placeholder is kept; a goal that
     does not parse is returned as it is, for the checks to refuse."""
@@ -269,8 +269,7 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
     except InputError:
         return goal
     words = words_for(scenario)
-    named = words.named_in(text) | mentioned_objects(scenario.task, [text])
-    spoken = {name for name in named if not words.noun(name).agent}
+    spoken = _spoken_objects(scenario, text)
 
     def about(literal: Atom) -> set[str]:
         return {x for x in literal.args if x.lower() not in PLACEHOLDERS and not words.noun(x).agent}
@@ -288,6 +287,12 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
     return format_goal(kept)
 
 
+def _spoken_objects(scenario: Scenario, text: str) -> frozenset[str]:
+    """The objects ``text`` calls by one of the world's words for them or spells (the robot and
+    placeholders aside)."""
+    return frozenset(name for name in words_for(scenario).named_in(text) if name.lower() not in PLACEHOLDERS)
+
+
 def _words(text: str) -> list[str]:
     """The lower-case words of ``text``, articles left out."""
     return [word for word in re.findall(r"[a-z0-9]+", text.lower()) if word not in ("the", "a", "an")]
@@ -300,15 +305,17 @@ def _cover(
     request: Request,
     attempts: list[GoalAttempt],
     deadline: Deadline | None,
+    by_words: bool = False,
 ) -> float:
     """Extend an accepted conjunction with a literal for each object the instruction names and the
-    goal leaves out (a small model stops after the first literal); a literal that draws an
-    objection is left out. Returns the model's time."""
+    goal leaves out (a small model stops after the first literal, a taught one may skip one of a
+    long list); a literal that draws an objection is left out. Objects are named by their spelling,
+    and ``by_words`` (a taught model) also by the world's words for them. Returns the model's time."""
     goal = attempts[-1].goal
     terms = parse_goal(goal)
     if len(terms) != 1 or not Connectives.licensed_by(text).conjunctions:
         return 0.0
-    named, atoms = named_atoms(scenario.task, text)
+    named, atoms = named_atoms(scenario.task, text, _spoken_objects(scenario, text) if by_words else frozenset())
     spent = 0.0
     for missing in sorted(named):
         literals = parse_goal(goal)[0]
