@@ -119,12 +119,12 @@ class Words:
         cabinet" names ``kitchencabinet``). The longest names are read first, and
         words read as one name are not read again as part of another ("the AD calcium milk" names
         ``ADMilk``, not ``Milk`` too)."""
-        said = _spoken(text)
+        said = spoken_words(text)
         found = [
             (start, len(words), name)
             for name, noun in self.objects.items()
             if not noun.agent
-            for words in {_spoken(spoken) for spoken in noun.names}
+            for words in {spoken_words(spoken) for spoken in noun.names}
             for start in _starts(words, said)
         ]
         spelled = {
@@ -147,8 +147,8 @@ class Words:
         return frozenset(named)
 
 
-def _spoken(text: str) -> tuple[str, ...]:
-    """The lower-case words of ``text``, determiners left out."""
+def spoken_words(text: str) -> tuple[str, ...]:
+    """The lower-case words of ``text``, determiners ("the", "a", "my", ...) left out."""
     return tuple(w for w in re.findall(r"[a-z0-9]+", text.lower()) if w not in _DETERMINERS)
 
 
@@ -327,6 +327,7 @@ __all__ = [
     "phrasing_of",
     "shipped_words",
     "split_name",
+    "spoken_words",
     "words_for",
     "words_from",
 ]

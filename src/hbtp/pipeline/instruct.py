@@ -26,7 +26,6 @@ goal).
 from __future__ import annotations
 
 import logging
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import partial
@@ -35,7 +34,7 @@ from typing import Any
 from hbtp.datasets.instructions import load_instructions
 from hbtp.deadline import Deadline, expired
 from hbtp.domains.scenarios import Scenario
-from hbtp.domains.words import words_for
+from hbtp.domains.words import spoken_words, words_for
 from hbtp.errors import BackendTimeLimit, InputError
 from hbtp.llm.backend import Backend, PromptStyle, Request
 from hbtp.llm.goal_prompt import (
@@ -245,13 +244,13 @@ def false_refusal(scenario: Scenario, text: str, lacking: str) -> str | None:
     instruction must say the thing (each of its words), and the world must have no object called so
     (a name of its words, :mod:`hbtp.domains.words`, or the last word of one: "bottle" for the
     condiment bottle)."""
-    said = set(_words(text))
-    wanted = _words(lacking)
+    said = set(spoken_words(text))
+    wanted = spoken_words(lacking)
     if not wanted or not set(wanted) <= said:
         return f"refused {lacking!r}, which the instruction does not say"
     for name, noun in sorted(words_for(scenario).objects.items()):
         for spoken in () if noun.agent else noun.names:
-            words = _words(spoken)
+            words = spoken_words(spoken)
             if words and (wanted == words or wanted == words[-1:]):
                 return f"refused {lacking!r}, which {scenario.name!r} has ({name})"
     return None
@@ -291,11 +290,6 @@ def _spoken_objects(scenario: Scenario, text: str) -> frozenset[str]:
     """The objects ``text`` calls by one of the world's words for them or spells (the robot and
     placeholders aside)."""
     return frozenset(name for name in words_for(scenario).named_in(text) if name.lower() not in PLACEHOLDERS)
-
-
-def _words(text: str) -> list[str]:
-    """The lower-case words of ``text``, articles left out."""
-    return [word for word in re.findall(r"[a-z0-9]+", text.lower()) if word not in ("the", "a", "an")]
 
 
 def _cover(
