@@ -15,12 +15,13 @@ what already holds (a goal asked for again would only drift from what was meant)
 the world may refuse itself: an instruction that names what the world lacks is answered with what
 it lacks (:func:`hbtp.llm.goal_prompt.refusal_of`), and that is the error, unless the refusal
 cannot stand (:func:`false_refusal`: the instruction does not say the thing, or the world has an
-object called so), when the model is asked again with refusals not offered. A completion-style model's
-accepted conjunction is then extended with a literal for each object the instruction names and the
-goal leaves out (asked as a continuation of its own goal; a literal that draws an objection is
-dropped). An instruction that names no object of the domain and shares no word with a known
-instruction is refused before the model is asked (a model under a grammar always answers *some*
-goal).
+object called so), when the model is asked again with refusals not offered; its answer loses the
+literals about objects the instruction never names, when others are about objects it names
+(:func:`unsaid_dropped`). A completion-style model's accepted conjunction is then extended with a
+literal for each object the instruction names and the goal leaves out (asked as a continuation of
+its own goal; a literal that draws an objection is dropped). An instruction that names no object
+of the domain and shares no word with a known instruction is refused before the model is asked (a
+model under a grammar always answers *some* goal).
 """
 
 from __future__ import annotations
