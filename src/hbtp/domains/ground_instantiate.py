@@ -136,9 +136,8 @@ class Grounder:
         with self._located(schema):
             compiled = self.compiler.compile(schema)
             fluent = () if compiled.fluent_atoms_only else compiled.fluent
-            fixed = None
-            if all(isinstance(op, FixedCost) for op in compiled.cost_ops):  # the same cost for every binding
-                fixed = self._cost(schema, (), [op.amount for op in compiled.cost_ops if isinstance(op, FixedCost)])
+            amounts = [op.amount for op in compiled.cost_ops if isinstance(op, FixedCost)]
+            fixed = self._cost(schema, (), amounts) if len(amounts) == len(compiled.cost_ops) else None  # all numbers
             dropped: list[str] = []
             for key, binding, _ in self.joiner.candidates(schema, compiled.static, fluent, ()):
                 if fixed is not None:

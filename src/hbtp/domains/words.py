@@ -127,16 +127,10 @@ class Words:
             for words in {spoken_words(spoken) for spoken in noun.names}
             for start in _starts(words, said)
         ]
-        spelled = {
-            re.sub(r"[^a-z0-9]", "", name.lower()): name for name, noun in self.objects.items() if not noun.agent
-        }
-        for start in range(len(said)):  # or spelled: "kitchen cabinet" for kitchencabinet
-            for width in (1, 2, 3):
-                joined = "".join(said[start : start + width])
-                forms = (joined, joined.removesuffix("s"), joined.removesuffix("es"))
-                name = next((spelled[form] for form in forms if form in spelled), None)
-                if name is not None and start + width <= len(said):
-                    found.append((start, width, name))
+        spelled = {spelling(name): name for name, noun in self.objects.items() if not noun.agent}
+        found += [
+            (start, width, name) for start in range(len(said)) for width, name in spelled_at(said, start, spelled)
+        ]
         taken: set[int] = set()
         named: set[str] = set()
         for start, width, name in sorted(found, key=lambda m: (-m[1], m[0], m[2])):
@@ -150,6 +144,27 @@ class Words:
 def spoken_words(text: str) -> tuple[str, ...]:
     """The lower-case words of ``text``, determiners ("the", "a", "my", ...) left out."""
     return tuple(w for w in re.findall(r"[a-z0-9]+", text.lower()) if w not in _DETERMINERS)
+
+
+def spelling(name: str) -> str:
+    """How ``name`` is spelled when it is written in words: lower case, letters and digits only."""
+    return re.sub(r"[^a-z0-9]", "", name.lower())
+
+
+def spelled_at(words: Sequence[str], start: int, spelled: Mapping[str, str]) -> list[tuple[int, str]]:
+    """The names whose :func:`spelling` (the keys of ``spelled``) the words from ``start`` spell in a
+    run of up to three ("kitchen cabinet": ``kitchencabinet``), a plural ``s`` or ``es`` aside: each
+    as (words in the run, name), the longest run first."""
+    found = []
+    for width in (3, 2, 1):
+        if start + width > len(words):
+            continue
+        joined = "".join(words[start : start + width])
+        forms = (joined, joined.removesuffix("s"), joined.removesuffix("es"))
+        name = next((spelled[form] for form in forms if form in spelled), None)
+        if name is not None:
+            found.append((width, name))
+    return found
 
 
 def _starts(run: tuple[str, ...], words: tuple[str, ...]) -> list[int]:
@@ -326,6 +341,8 @@ __all__ = [
     "parse_words",
     "phrasing_of",
     "shipped_words",
+    "spelled_at",
+    "spelling",
     "split_name",
     "spoken_words",
     "words_for",

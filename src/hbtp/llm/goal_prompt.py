@@ -25,6 +25,7 @@ import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 
+from hbtp.domains.words import spelled_at, spelling
 from hbtp.llm.backend import Message, Request
 from hbtp.llm.constrain import Constraint, NameRules, gbnf_literal
 from hbtp.logic.atoms import Atom
@@ -178,21 +179,16 @@ def object_positions(task: GroundTask, text: str) -> dict[str, int]:
     """The task's symbols that ``text`` names, with the word where each is first named: a run of up
     to three words that spells the symbol (case and spaces aside, a plural ``s`` aside), the longest
     run first ("kitchen cabinet" names ``kitchencabinet``, not ``cabinet``)."""
-    spelled = {re.sub(r"[^a-z0-9]", "", s.lower()): s for s in task.symbols}
+    spelled = {spelling(s): s for s in task.symbols}
     found: dict[str, int] = {}
     tokens = words(text)
     start = 0
     while start < len(tokens):
-        for length in (3, 2, 1):
-            joined = "".join(tokens[start : start + length])
-            name = next(
-                (spelled[f] for f in (joined, joined.removesuffix("s"), joined.removesuffix("es")) if f in spelled),
-                None,
-            )
-            if name is not None and start + length <= len(tokens):
-                found.setdefault(name, start)
-                start += length
-                break
+        runs = spelled_at(tokens, start, spelled)
+        if runs:
+            length, name = runs[0]
+            found.setdefault(name, start)
+            start += length
         else:
             start += 1
     return found

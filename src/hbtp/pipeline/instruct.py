@@ -35,7 +35,7 @@ from typing import Any
 from hbtp.datasets.instructions import load_instructions
 from hbtp.deadline import Deadline, expired
 from hbtp.domains.scenarios import Scenario
-from hbtp.domains.words import spoken_words, words_for
+from hbtp.domains.words import Words, spoken_words, words_for
 from hbtp.errors import BackendTimeLimit, InputError
 from hbtp.llm.backend import Backend, PromptStyle, Request
 from hbtp.llm.goal_prompt import (
@@ -269,7 +269,7 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
     except InputError:
         return goal
     words = words_for(scenario)
-    spoken = _spoken_objects(scenario, text)
+    spoken = _spoken_objects(words, text)
 
     def about(literal: Atom) -> set[str]:
         return {x for x in literal.args if x.lower() not in PLACEHOLDERS and not words.noun(x).agent}
@@ -287,10 +287,10 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
     return format_goal(kept)
 
 
-def _spoken_objects(scenario: Scenario, text: str) -> frozenset[str]:
-    """The objects ``text`` calls by one of the world's words for them or spells (the robot and
+def _spoken_objects(words: Words, text: str) -> frozenset[str]:
+    """The objects ``text`` calls by one of the world's ``words`` for them or spells (the robot and
     placeholders aside)."""
-    return frozenset(name for name in words_for(scenario).named_in(text) if name.lower() not in PLACEHOLDERS)
+    return frozenset(name for name in words.named_in(text) if name.lower() not in PLACEHOLDERS)
 
 
 def _cover(
@@ -310,7 +310,9 @@ def _cover(
     terms = parse_goal(goal)
     if len(terms) != 1 or not Connectives.licensed_by(text).conjunctions:
         return 0.0
-    named, atoms = named_atoms(scenario.task, text, _spoken_objects(scenario, text) if by_words else frozenset())
+    named, atoms = named_atoms(
+        scenario.task, text, _spoken_objects(words_for(scenario), text) if by_words else frozenset()
+    )
     spent = 0.0
     for missing in sorted(named):
         literals = parse_goal(goal)[0]
