@@ -95,19 +95,21 @@ def _explore(
     actions: Sequence[GroundAction],
     costs: Mapping[int, float] | None = None,
     deadline: Deadline | None = None,
+    users: Sequence[Sequence[int]] | None = None,
 ) -> tuple[list[float], list[int]]:
     """:func:`hmax_table`, and the indices of the actions whose precondition became reachable, in
-    the order it did (by increasing h_max of the precondition)."""
+    the order it did (by increasing h_max of the precondition). ``users``: :func:`_consumers`, if
+    the caller has it."""
     cost = [math.inf] * len(task.atoms)
     everything = task.actions
     waiting: dict[int, int] | list[int] = (
         [len(a.pre) for a in everything] if len(actions) == len(everything) else {a.index: len(a.pre) for a in actions}
     )
-    users = _consumers(task, actions)
-    heap: list[tuple[float, int]] = []
-    for atom in sorted(task.initial_state):
+    if users is None:
+        users = _consumers(task, actions)
+    heap = [(0.0, atom) for atom in sorted(task.initial_state)]  # sorted: already a heap
+    for _, atom in heap:
         cost[atom] = 0.0
-        heapq.heappush(heap, (0.0, atom))
     fired: list[int] = []
 
     def relax(action: GroundAction, pre_cost: float) -> None:
@@ -145,6 +147,7 @@ def landmark_table(
     reachable: Sequence[float],
     deadline: Deadline | None = None,
     order: Sequence[int] | None = None,
+    users: Sequence[Sequence[int]] | None = None,
 ) -> Landmarks:
     """For each atom id, its fact landmarks from s0 (``None`` when unreachable).
 
@@ -154,7 +157,8 @@ def landmark_table(
     then only the actions whose precondition's landmarks changed. The sets are small (about five
     atoms in RobotHow at every size), so they are kept as frozensets: a union or an intersection
     costs what the sets hold, not what the world holds (as bit masks over every atom they took the
-    square of the atoms in time and memory: 10 GB for RobotHow grown to 282,835 atoms)."""
+    square of the atoms in time and memory: 10 GB for RobotHow grown to 282,835 atoms). ``users``:
+    :func:`_consumers`, if the caller has it."""
     table: list[frozenset[int] | None] = [None] * len(task.atoms)
     for atom in task.initial_state:
         table[atom] = frozenset((atom,))
@@ -162,7 +166,8 @@ def landmark_table(
         usable = [a for a in actions if all(not math.isinf(reachable[p]) for p in a.pre)]
         usable.sort(key=lambda a: (max((reachable[p] for p in a.pre), default=0.0), a.index))
         order = [a.index for a in usable]
-    users = _consumers(task, actions)
+    if users is None:
+        users = _consumers(task, actions)
     everything = task.actions
     queued = dict.fromkeys(order, True)
     pending = list(reversed(order))  # popped from the end: the first pass in order
@@ -275,8 +280,9 @@ class SpaceAnalysis:
 
     def __init__(self, task: GroundTask, actions: Sequence[GroundAction], deadline: Deadline | None = None) -> None:
         self.actions = actions
-        self.hmax, order = _explore(task, actions, deadline=deadline)
-        self.landmarks = landmark_table(task, actions, self.hmax, deadline, order)
+        users = _consumers(task, actions)
+        self.hmax, order = _explore(task, actions, deadline=deadline, users=users)
+        self.landmarks = landmark_table(task, actions, self.hmax, deadline, order, users)
         if len(actions) == len(task.actions):  # the same for every s0: kept for re-planning
             self.pre_atoms, self.shares = _SHARES.of(task, lambda: _shares(task, actions))
         else:
@@ -295,7 +301,7 @@ class PreconditionLandmarks(Mapping[int, "frozenset[int] | None"]):
     ) -> None:
         self.task = task
         self.indices = frozenset(a.index for a in actions)
-        self.landmarks = landmarks
+        self.landmarks = landmarks.sets if isinstance(landmarks, Landmarks) else landmarks
         self.known: dict[int, frozenset[int] | None] = {}
 
     def __getitem__(self, index: int) -> frozenset[int] | None:
@@ -374,6 +380,8 @@ class LandmarkSum:
         compiled: bool = COMPILED,
     ) -> None:
         self.landmarks = landmarks
+        # The plain list behind a Landmarks table: read per condition, indexing it is most of the cost.
+        self.sets: Sequence[frozenset[int] | None] = landmarks.sets if isinstance(landmarks, Landmarks) else landmarks
         self.share = share
         self.initial_state = initial_state
         self.pre_landmarks = pre_landmarks
@@ -388,21 +396,16 @@ class LandmarkSum:
         self.calls += 1
         if self.calls > extensions.WARM_UP and self.kernel is not None:
             self.tables = self.compiled_tables()
-        landmarks = self.landmarks
-        parts = []
-        for atom in condition:
-            part = landmarks[atom]
-            if part is None:
-                return math.inf
-            parts.append(part)
+        parts = [self.sets[atom] for atom in condition]
         if not parts:
             return 0.0
-        share = self.share
-        total = math.ceil(sum(share[f] for f in frozenset().union(*parts) - self.initial_state) - 1e-9)
+        if None in parts:
+            return math.inf
+        needed = frozenset().union(*parts) - self.initial_state  # type: ignore[arg-type]
+        total = float(math.ceil(sum(map(self.share.__getitem__, needed)) - 1e-9))
         if self.hmax is not None:
-            hmax = self.hmax
-            return max(float(total), max(hmax[a] for a in condition))
-        return float(total)
+            return max(total, max(map(self.hmax.__getitem__, condition)))
+        return total
 
     def compiled_tables(self) -> tuple[bytes, bytes, bytes, bytearray, bytes | None]:
         """What the C kernel reads: the landmarks' spans and atoms, the shares (0 in s0), its scratch

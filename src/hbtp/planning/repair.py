@@ -53,7 +53,7 @@ from hbtp.logic.task import Goal, GroundAction, GroundTask
 from hbtp.planning.heuristics import build_heuristic
 from hbtp.planning.limits import Limits, LimitWatch
 from hbtp.planning.result import PlanResult, SearchStats, Status
-from hbtp.planning.search import _Search, goal_verdict
+from hbtp.planning.search import _Search, goal_verdict, merged
 from hbtp.planning.search_state import READY, RESUME, Node, SearchConfig
 
 #: Conditions a kept search may hold before it is dropped (about 0.5 KB each with the open list and
@@ -198,7 +198,7 @@ class RepairableSearch(_Search):
             if node.seen is None:
                 node.seen = set()
             lists = [entries for entries in map(self.adders_of, sorted(condition)) if entries]
-            node.pending = iter(lists[0]) if len(lists) == 1 else heapq.merge(*lists) if lists else None
+            node.pending = merged(lists) if lists else None
             node.peek = None if node.pending is None else next(node.pending, None)
             if node.peek is not None:
                 self.push(condition, node, node.g + node.peek[0], RESUME)

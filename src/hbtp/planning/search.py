@@ -30,10 +30,11 @@ in s0, then by insertion order, so runs are deterministic.
 from __future__ import annotations
 
 import heapq
+import itertools
 import logging
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 
 from hbtp.collector import collector_paused, search_memory
 from hbtp.deadline import TimeLimitReached
@@ -249,10 +250,17 @@ class _Search(SearchState):
                     if not action.add.isdisjoint(condition):
                         node.seen.add(action_id)
                         self.child(condition, node, action)
-        lists = [entries for entries in map(self.adders_of, sorted(condition)) if entries]
+        known = self.adders
+        lists = []
+        for atom in sorted(condition):
+            entries = known.get(atom)
+            if entries is None:
+                entries = self.adders_of(atom)
+            if entries:
+                lists.append(entries)
         if not lists:
             return
-        node.pending = iter(lists[0]) if len(lists) == 1 else heapq.merge(*lists)
+        node.pending = merged(lists)
         self.generate(condition, node, priority)
 
     def generate(self, condition: frozenset[int], node: Node, threshold: Number) -> None:
@@ -347,6 +355,21 @@ class _Search(SearchState):
         return False
 
 
+#: Achievers a condition merges at most by sorting them at once (beyond: lazily, by heapq.merge).
+_SORTED_MERGE = 64
+
+
+def merged(lists: list[list[tuple[Number, int]]]) -> Iterator[tuple[Number, int]]:
+    """The entries of the sorted ``lists`` in one sorted stream: a few, sorted at once (cheaper than a
+    generator per entry); many, merged lazily (the search may take only the first of thousands). The
+    entries are distinct pairs or equal ones, so both give the same order."""
+    if len(lists) == 1:
+        return iter(lists[0])
+    if sum(map(len, lists)) <= _SORTED_MERGE:
+        return iter(sorted(itertools.chain.from_iterable(lists)))
+    return heapq.merge(*lists)
+
+
 def _completes_nogood(rest: frozenset[int], nogoods: Sequence[Sequence[frozenset[int]]], child: frozenset[int]) -> bool:
     """Whether the regressed condition holds a nogood that the condition it came from (whose
     ``rest`` it keeps) did not."""
@@ -357,4 +380,4 @@ def _completes_nogood(rest: frozenset[int], nogoods: Sequence[Sequence[frozenset
     return False
 
 
-__all__ = ["SearchConfig", "goal_verdict", "release_search_memory", "search"]
+__all__ = ["SearchConfig", "goal_verdict", "merged", "release_search_memory", "search"]

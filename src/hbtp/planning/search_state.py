@@ -227,7 +227,10 @@ class SearchState:
         if clashing:
             return bool(condition)
         add = action.add
-        return any(atom not in add and not partners[atom].isdisjoint(pre) for atom in condition)
+        for atom in condition:  # noqa: SIM110 (a loop, not any() over a generator: this runs for every child)
+            if atom not in add and not partners[atom].isdisjoint(pre):
+                return True
+        return False
 
     def live_roots(self) -> list[frozenset[int]]:
         """The goal's disjuncts the search expands: those that no mutex rules out and whose
