@@ -386,3 +386,33 @@ def test_a_thing_in_the_hand_that_must_be_free_is_put_down_where_the_hints_name_
     assert replan.cost >= optimum
     assert set(space.around(state)) < set(space.beyond(state))
     assert mutexes.proved_only().conflict(state) is None
+
+
+def test_the_second_widening_walks_only_where_an_undo_needs_the_robot(robothow_small: Scenario) -> None:
+    """Moved near the TV with the kitchen knife in the left hand, out of the hints' reach: the space
+    of the undo actions within a step adds putting the knife down and the walks to where it can be
+    put, not a walk to every object because the robot moved (a walk of the space already takes it
+    away from the TV); its search reaches the goal."""
+    task = robothow_small.task
+    goal = task.resolve_goal("IsPlugged_tv & IsPlugged_mouse")
+    hints = hints_from_names(predicates=["Walk", "PlugIn"], objects=["tv", "mouse"])
+    space = PrunedSpace(task, resolve_hints(task, hints))
+    gained = {"IsNear_self_tv", "IsLeftHolding_self_kitchenknife", "IsLeftHandFull_self"}
+    state = (task.initial_state - {task.atom_id("IsLeftHandEmpty_self")}) | {task.atom_id(a) for a in gained}
+    around, beyond = set(space.around(state)), set(space.beyond(state))
+    added = [task.actions[i] for i in sorted(beyond - around)]
+    puts = [a for a in added if a.predicate != "Walk"]
+    walks = [a for a in added if a.predicate == "Walk"]
+    assert puts
+    assert {a.predicate for a in puts} <= {"LeftPut", "LeftPutIn"}
+    assert all(a.objects[0] == "kitchenknife" for a in puts)
+    needed = frozenset().union(*(a.pre for a in puts)) - state
+    assert walks
+    assert all(walk.add & needed for walk in walks)  # each walk leads where a put needs the robot
+    assert len(walks) < len([a for a in task.actions if a.predicate == "Walk"]) - 2
+    world = task.from_state(state)
+    config = planner_config("obtea", heuristic="lm")
+    assert not search(world, world.resolve_goal(goal), [world.actions[i] for i in sorted(around)], config).solved
+    result = search(world, world.resolve_goal(goal), [world.actions[i] for i in sorted(beyond)], config)
+    assert result.solved
+    check_tree(result, world, state)

@@ -12,7 +12,7 @@ import hashlib
 import logging
 import random
 from collections import Counter, defaultdict
-from collections.abc import Iterable, Sequence
+from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass
 from typing import TypeVar
 
@@ -177,12 +177,17 @@ class PrunedSpace:
             found += [index for index, extra in self.other.get(name, ()) if extra <= added]
         return tuple(sorted([*self.base, *found])) if found else self.base
 
-    def undoing(self, state: frozenset[int]) -> set[int]:
+    def undoing(self, state: frozenset[int], space: Collection[int] = ()) -> set[int]:
         """The actions that undo a change of ``state`` from the task's start state: delete an atom it
-        gained, or add one it lost."""
-        start, achievers = self.task.initial_state, self.task.achievers
-        undo = {index for atom in state - start for index in self.deleters.get(atom, ())}
-        return undo | {index for atom in start - state for index in achievers[atom]}
+        gained (unless an action of ``space`` deletes it already: a walk in the space takes the robot
+        away from where it was moved to), or add one it lost."""
+        start, achievers, deleters = self.task.initial_state, self.task.achievers, self.deleters
+        undo = {index for atom in start - state for index in achievers[atom]}
+        for atom in state - start:
+            found = deleters.get(atom, ())
+            if not any(index in space for index in found):
+                undo.update(found)
+        return undo
 
     def around(self, state: Iterable[int]) -> tuple[int, ...]:
         """A⁻ for a re-plan from ``state``: widened by the objects of every atom the state changed
@@ -199,16 +204,20 @@ class PrunedSpace:
         return widened if restoring <= set(widened) else tuple(sorted(restoring.union(widened)))
 
     def beyond(self, state: Iterable[int]) -> tuple[int, ...]:
-        """:meth:`around` with the actions that undo a change and apply in ``state`` or after one
-        action that applies there, and those actions: put the thing in the hand down on any surface
-        (the hints name none to put it on), after walking there. A pass over every action."""
+        """:meth:`around` with the actions that undo a change (:meth:`undoing`: not those of an atom
+        gained that the space deletes already) and apply in ``state`` or after one action that applies
+        there, and those actions: put the thing in the hand down on any surface (the hints name none
+        to put it on), after walking there; not a walk to everywhere because the robot was moved. A
+        pass over every action."""
         task, now = self.task, frozenset(state)
+        around = self.around(now)
         applicable = [action for action in task.actions if action.pre <= now]
         near = now.union(*(action.add for action in applicable))
-        undo = [task.actions[index] for index in sorted(self.undoing(now)) if task.actions[index].pre <= near]
+        undoing = self.undoing(now, frozenset(around))
+        undo = [task.actions[index] for index in sorted(undoing) if task.actions[index].pre <= near]
         needed = frozenset().union(*(a.pre for a in undo)) - now
         enabling = [action.index for action in applicable if action.add & needed]
-        return tuple(sorted({*self.around(now), *(a.index for a in undo), *enabling}))
+        return tuple(sorted({*around, *(a.index for a in undo), *enabling}))
 
 
 def pruned_action_space(task: GroundTask, hints: ResolvedHints) -> tuple[int, ...]:
