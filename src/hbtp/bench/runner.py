@@ -305,7 +305,7 @@ def _run_ray(
                 ray.init(num_cpus=jobs, include_dashboard=False, log_to_driver=False)
         except Exception as error:  # Ray raises many types (ConnectionError, RuntimeError, ...)
             raise BackendError(f"cannot start or reach Ray ({address or 'local'}): {error}") from error
-    remote = ray.remote(max_retries=0)(in_worker)
+    remote: Any = ray.remote(max_retries=0)(in_worker)  # Ray 2.60's stubs reject the generic in_worker
     queue = list(reversed(pending))
     running: dict[Any, tuple[Work, float]] = {}
     try:
