@@ -54,7 +54,8 @@ from hbtp.errors import InputError
 from hbtp.logic.execution import Disturbance, NodeStatus, Run, Trace, execute
 from hbtp.logic.task import Goal, GoalIds, GroundAction, GroundTask, State
 from hbtp.planning.heuristic_names import DEFAULT_HEURISTIC, HeuristicName
-from hbtp.planning.hints import Hints, PrunedSpace, resolve_hints
+from hbtp.planning.hints import Hints
+from hbtp.planning.kept import KeptSearch
 from hbtp.planning.limits import Limits
 from hbtp.planning.planners import Space, confirmed_search, planner_config
 from hbtp.planning.repair import RepairableSearch, repairable
@@ -92,32 +93,6 @@ PRUNED_EXPANSIONS = 5_000
 
 #: Called when a re-plan swaps a tree in, with the new tree's policy (the old tree already halted).
 SwapHook = Callable[[TreePolicy], object]
-
-
-class KeptSearch:
-    """The search that re-plans continue (:class:`hbtp.planning.repair.RepairableSearch`), held for one
-    goal and planner; Replanners given the same one share it (the runs of a benchmark task, the episodes
-    of a robot with the same goal), so each continues what the others explored. Memory: at most
-    :data:`hbtp.planning.repair.MAX_CONDITIONS` conditions, then it is dropped and started anew."""
-
-    def __init__(self) -> None:
-        self.search: RepairableSearch | None = None
-        self._space: tuple[GroundTask, Hints, PrunedSpace] | None = None
-
-    def pruned_space(self, task: GroundTask, hints: Hints) -> PrunedSpace:
-        """The pruned space of ``hints`` in ``task``, built once for the re-plans that share this."""
-        if self._space is None or self._space[0] is not task or self._space[1] != hints:
-            space = PrunedSpace(task, resolve_hints(task, hints))
-            space.prepare()  # with the tree, not at the first re-plan
-            self._space = (task, hints, space)
-        return self._space[2]
-
-    def take(self, goal: Goal, config: SearchConfig) -> RepairableSearch | None:
-        """The kept search if it is one for ``goal`` and ``config`` (else it is dropped)."""
-        search = self.search
-        if search is not None and (search.goal.disjuncts != goal.disjuncts or search.config != config):
-            self.search = search = None
-        return search
 
 
 @dataclass(frozen=True)
@@ -170,6 +145,8 @@ class Replan:
     tree: Node | None = field(default=None, compare=False, repr=False)
     #: The action space whose search answered: the hints' (pruned) or every action's (full).
     space: Space = Space.FULL
+    #: The answer of an earlier search from the same state (:meth:`KeptSearch.recall`), not searched again.
+    recalled: bool = False
     #: The state it planned from.
     state: State = field(default=frozenset(), compare=False, repr=False)
 
@@ -255,16 +232,18 @@ class Replanner:
         if left <= 0:
             return self._give_up(f"the re-planning budget of {options.budget_s:g} s is spent")
         started = time.perf_counter()
-        space, result = self._plan(state, left)
+        space, result, recalled = self._plan(state, left)
         seconds = time.perf_counter() - started
         self.spent += seconds
         log.info(
-            "tick %d: re-planned (%s) in %.1f ms: %s in the %s space",
-            self.ticks, reason, seconds * 1000, result.status.value, space.value,
+            "tick %d: re-planned (%s) in %.1f ms: %s in the %s space%s",
+            self.ticks, reason, seconds * 1000, result.status.value, space.value, " (recalled)" if recalled else "",
         )  # fmt: skip
         tree = tree_of(result, options.tree) if result.solved else None
         replan = Replan(self.ticks, reason, round(seconds, 6), result.status.value, result.cost, result.message)
-        self.replans.append(dataclasses.replace(replan, tree=tree, space=space, state=frozenset(state)))
+        self.replans.append(
+            dataclasses.replace(replan, tree=tree, space=space, recalled=recalled, state=frozenset(state))
+        )
         if result.status is Status.UNSOLVABLE:
             self.unsolvable = True
             return self._give_up(f"{UNSOLVABLE_FROM_STATE}: {result.message}")
@@ -281,29 +260,54 @@ class Replanner:
         for hook in self.on_swap:
             hook(self.policy)
 
-    def _plan(self, state: State, seconds: float) -> tuple[Space, PlanResult]:
+    def _plan(self, state: State, seconds: float) -> tuple[Space, PlanResult, bool]:
         """The new tree's search from ``state``: the hints' space first (when the options have hints
-        and it finds a tree within :data:`PRUNED_EXPANSIONS`), else the full space."""
+        and it finds a tree within :data:`PRUNED_EXPANSIONS`), else the full space; and whether the
+        answer was recalled (:meth:`KeptSearch.recall`: the hints' space searched from ``state``
+        before, by this or another run sharing the kept search)."""
         started = time.perf_counter()
+        config = planner_config(self.options.planner, heuristic=self.options.heuristic)
+        hints = self.options.hints
+        key = (self.goal.disjuncts, config, frozenset(state), frozenset(self.excluded))
+        settled, answer = self.kept.recall(key) if hints is not None else (True, None)
+        if answer is not None:
+            return Space.PRUNED, answer, True
         world = self.task.from_state(state)
         goal = world.resolve_goal(self.goal)
+        mutexes = self.mutexes if self.mutexes.conflict(frozenset(state)) is None else None
+        if not settled:  # the hints' space not searched from this state yet
+            left = seconds - (time.perf_counter() - started)
+            answer, decided = self._pruned(world, goal, state, config, mutexes, left)
+            if decided:
+                self.kept.remember(key, answer)
+            if answer is not None:
+                return Space.PRUNED, answer, False
         actions: Sequence[GroundAction] = world.actions
         if self.excluded:
             actions = [a for a in world.actions if a.index not in self.excluded]
-        mutexes = self.mutexes if self.mutexes.conflict(frozenset(state)) is None else None
-        config = planner_config(self.options.planner, heuristic=self.options.heuristic)
-        if self.options.hints is not None:
-            space = self.kept.pruned_space(self.task, self.options.hints)
-            for widened in (space.around, space.beyond):
-                left = max(seconds - (time.perf_counter() - started), 1e-9)
-                limits = Limits(time_s=left, max_expansions=PRUNED_EXPANSIONS)
-                pruned = [world.actions[i] for i in widened(state) if i not in self.excluded]
-                result = confirmed_search(world, goal, pruned, config, mutexes=mutexes, limits=limits)
-                if result.solved:
-                    return Space.PRUNED, result
-                log.info("no tree in the hints' space (%s, %s)", widened.__name__, result.status.value)
         left = max(seconds - (time.perf_counter() - started), 1e-9)
-        return Space.FULL, self._full(world, goal, actions, config, mutexes, left)
+        return Space.FULL, self._full(world, goal, actions, config, mutexes, left), False
+
+    def _pruned(
+        self, world: GroundTask, goal: Goal, state: State, config: SearchConfig, mutexes: Mutexes | None, seconds: float
+    ) -> tuple[PlanResult | None, bool]:
+        """The hints' space's tree from ``state`` (``None``: none within :data:`PRUNED_EXPANSIONS`
+        conditions, its space widened twice), and whether that is decided (no time limit ended a
+        search: the same search would give it again)."""
+        assert self.options.hints is not None
+        started = time.perf_counter()
+        space = self.kept.pruned_space(self.task, self.options.hints)
+        decided = True
+        for widened in (space.around, space.beyond):
+            left = max(seconds - (time.perf_counter() - started), 1e-9)
+            limits = Limits(time_s=left, max_expansions=PRUNED_EXPANSIONS)
+            pruned = [world.actions[i] for i in widened(state) if i not in self.excluded]
+            result = confirmed_search(world, goal, pruned, config, mutexes=mutexes, limits=limits)
+            if result.solved:
+                return result, decided
+            decided = decided and result.status is not Status.TIMEOUT
+            log.info("no tree in the hints' space (%s, %s)", widened.__name__, result.status.value)
+        return None, decided
 
     def _full(
         self,
@@ -480,11 +484,14 @@ def replanning_summary(base: Run, results: Sequence[ReplanningRun], goal: Goal) 
     unsolvable = [r for r in results if r.unsolvable]
     reachable = [r for r in results if not r.unsolvable]
     times = [replan.seconds for r in results for replan in r.replans]
+    searched = [replan.seconds for r in results for replan in r.replans if not replan.recalled]
     stats.update(
         replans=sum(len(r.replans) for r in results),
         mean_replans=round(statistics.fmean(len(r.replans) for r in results), 6) if results else None,
         median_replan_ms=round(1000 * statistics.median(times), 3) if times else None,
         max_replan_ms=round(1000 * max(times), 3) if times else None,
+        recalled_replans=len(times) - len(searched),
+        median_searched_replan_ms=round(1000 * statistics.median(searched), 3) if searched else None,
         pruned_replans=sum(replan.space is Space.PRUNED for r in results for replan in r.replans),
         unsolvable_runs=len(unsolvable),
         budget_runs=sum(_hit_budget(r) for r in results),
