@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import random
+import statistics
 import subprocess
 import sys
 import threading
@@ -299,8 +300,15 @@ def test_robustness_benchmark_with_replanning(tmp_path: Path) -> None:
     assert main(argv) == EXIT_OK
     summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
     entry = summary["scenarios"]["robowaiter"]["p"]["0.5"]
+    rows = [json.loads(line) for line in (out / "results.jsonl").read_text(encoding="utf-8").splitlines()]
     for tree in ("full+replan", "path+replan"):
         assert entry[tree]["reachable_runs_succeeded"] == entry[tree]["reachable_runs"] > 0
+        # A re-plan is held against planning the same tasks from s0: those that re-planned.
+        replanned = [1000 * r["plan_time_s"] for r in rows if r["tree"] == tree and r["median_replan_ms"] is not None]
+        assert replanned
+        assert entry[tree]["median_plan_ms_replanned"] == round(statistics.median(replanned), 6)
+        assert 0 <= entry[tree]["recalled_replans"] <= entry[tree]["replans"]
+        assert entry[tree]["median_searched_replan_ms"] is not None
     assert "With re-planning" in (out / "report.md").read_text(encoding="utf-8")
 
 

@@ -309,15 +309,16 @@ def _replanning_table(summary: dict[str, Any]) -> list[str]:
             f"{entry[tree]['reachable_runs_succeeded']} / {entry[tree]['reachable_runs']}",
             entry[tree]["unsolvable_runs"],
             _num(entry[tree]["mean_replans"]),
-            _num(entry[tree]["median_replan_ms"], 1),
+            _num(entry[tree]["median_replan_ms"], 2),
             _num(entry[tree]["max_replan_ms"], 1),
+            _num(entry[tree].get("median_plan_ms_replanned"), 2),
         ]
         for name, block in summary["scenarios"].items()
         for p, entry in block["p"].items()
         for tree in trees
     ]
     header = ["scenario", "p", "tree", "reached / goal still reachable", "runs unsolvable from their state"]
-    header += ["re-plans per run", "median re-plan ms", "max re-plan ms"]
+    header += ["re-plans per run", "median re-plan ms", "max re-plan ms", "median plan ms from s0, same tasks"]
     return [
         "With re-planning (`--replan`: OBTEA with the landmark heuristic from the state the tree fails in; "
         "at most 10 re-plans and 30 s of re-planning per run):",

@@ -149,6 +149,10 @@ class RobustnessRow(Row):
     mean_replans: float | None = None
     median_replan_ms: float | None = None
     max_replan_ms: float | None = None
+    #: Re-plans answered by an earlier search from the same state (:meth:`hbtp.replanning.KeptSearch.recall`),
+    #: and the median time of the others.
+    recalled_replans: int | None = optional()
+    median_searched_replan_ms: float | None = optional()
     unsolvable_runs: int | None = optional()
     budget_runs: int | None = optional()
     #: Re-plans the hints' space answered; of those checked, how many found the full space's optimum,
@@ -437,8 +441,14 @@ def _replanning(rows: Sequence[RobustnessRow]) -> dict[str, Any]:
         "optimal_replans": _total(r.optimal_replans for r in rows),
         "replan_extra_cost": _total(r.replan_extra_cost for r in rows),
         "median_plan_ms": median(1000 * r.plan_time_s for r in rows if r.plan_time_s is not None),
+        # The same tasks' planning from s0, of those that re-planned (what a re-plan is held against).
+        "median_plan_ms_replanned": median(
+            1000 * r.plan_time_s for r in rows if r.plan_time_s is not None and r.median_replan_ms is not None
+        ),
         "mean_replans": mean(r.mean_replans for r in rows),
         "median_replan_ms": median(r.median_replan_ms for r in rows),
+        "recalled_replans": _total(r.recalled_replans for r in rows),
+        "median_searched_replan_ms": median(r.median_searched_replan_ms for r in rows),
         "max_replan_ms": max((r.max_replan_ms for r in rows if r.max_replan_ms is not None), default=None),
     }
 

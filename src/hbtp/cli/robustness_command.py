@@ -147,11 +147,13 @@ robustness_options = option_group(
 
 def _echo_replanning(summary: dict[str, Any], config: RobustnessConfig) -> None:
     """The re-planning figures: runs reached of those still reachable, budget hits, re-plan and plan
-    times, re-plans the hints' space answered (and, checked, how many of them found the optimum)."""
+    times (all, and those that searched), re-plans the hints' space answered, those recalled (answered
+    before from the same state), and, checked, how many found the optimum."""
     how = ("from scratch" if not config.repair else "repair") + (", hints first" if config.replan_hints else "")
     click.echo(
         f"re-planning ({how}): {'scenario':15} {'p':>4} {'tree':11} {'reached':>13} {'budget':>6} "
-        f"{'median replan ms':>16} {'max replan ms':>13} {'median plan ms':>14} {'hints/all':>10} {'optimal':>7}"
+        f"{'median replan ms':>16} {'searched':>8} {'max replan ms':>13} {'plan ms, same tasks':>19} {'hints/all':>10} "
+        f"{'recalled':>8} {'optimal':>7}"
     )
     for name, block in summary["scenarios"].items():
         for p, entry in block["p"].items():
@@ -162,13 +164,15 @@ def _echo_replanning(summary: dict[str, Any], config: RobustnessConfig) -> None:
                 optimal = "-" if row["optimal_replans"] is None else str(row["optimal_replans"])
                 click.echo(
                     f"re-planning ({how}): {name:15} {p:>4} {kind:11} {reached:>13} {row['budget_runs']:>6} "
-                    f"{_ms(row['median_replan_ms']):>16} {_ms(row['max_replan_ms']):>13} "
-                    f"{_ms(row['median_plan_ms']):>14} {answered:>10} {optimal:>7}"
+                    f"{_ms(row['median_replan_ms']):>16} {_ms(row['median_searched_replan_ms']):>8} "
+                    f"{_ms(row['max_replan_ms']):>13} {_ms(row['median_plan_ms_replanned']):>19} {answered:>10} "
+                    f"{row['recalled_replans'] or 0:>8} {optimal:>7}"
                 )
 
 
 def _ms(value: float | None) -> str:
-    return "-" if value is None else f"{value:.1f}"
+    """Milliseconds to two places below 10 ms (re-plans of a fraction of one), else to one."""
+    return "-" if value is None else f"{value:.2f}" if value < 10 else f"{value:.1f}"
 
 
 @click.command("robustness")
