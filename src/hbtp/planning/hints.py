@@ -128,6 +128,7 @@ class PrunedSpace:
         self.task = task
         self.predicates, self.objects = space.predicates, space.objects
         predicates, objects = space.predicates, space.objects
+        self._undo_names: dict[tuple[int, bool], frozenset[str]] = {}
         #: A⁻ itself, in task order.
         self.base = tuple(
             a.index for a in task.actions if a.predicate in predicates and all(o in objects for o in a.objects)
@@ -189,6 +190,15 @@ class PrunedSpace:
                 undo.update(found)
         return undo
 
+    def _undo_predicates(self, atom: int, gained: bool) -> frozenset[str]:
+        """The predicates of the actions that delete ``atom`` (``gained``) or add it (kept per atom)."""
+        key = (atom, gained)
+        known = self._undo_names.get(key)
+        if known is None:
+            found = self.deleters.get(atom, ()) if gained else self.task.achievers[atom]
+            known = self._undo_names[key] = frozenset(self.task.actions[index].predicate for index in found)
+        return known
+
     def around(self, state: Iterable[int]) -> tuple[int, ...]:
         """A⁻ for a re-plan from ``state``: widened by the objects of every atom the state changed
         from the task's start state, by the predicates of the actions that undo a change
@@ -197,7 +207,7 @@ class PrunedSpace:
         robot is, on what the hints never name). The hints did not foresee the disturbance."""
         task, now = self.task, frozenset(state)
         changed = now ^ task.initial_state
-        undo = {task.actions[index].predicate for index in self.undoing(now)}
+        undo = set[str]().union(*(self._undo_predicates(atom, atom in now) for atom in changed))
         widened = self.actions({obj for atom in changed for obj in task.atoms[atom].args}, undo)
         actions, achievers = task.actions, task.achievers
         restoring = {i for atom in task.initial_state - now for i in achievers[atom] if actions[i].pre <= now}
