@@ -199,6 +199,9 @@ class Replanner:
         self.kept = options.kept if options.kept is not None else KeptSearch()
         if options.hints is not None:  # built with the tree, not at the first re-plan
             self.kept.pruned_space(self.task, options.hints)
+        # The full space's heuristic reads which actions need each atom; built here once, every task
+        # from an observed state (GroundTask.from_state) shares it instead of building its own.
+        _ = self.task.consumers
         #: Why the policy stopped re-planning (``None`` while it may still re-plan).
         self.gave_up: str | None = None
         #: Whether it stopped because a re-plan proved the goal unreachable from the state.

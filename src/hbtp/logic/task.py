@@ -154,6 +154,7 @@ class GroundTask:
         """The same task starting in ``state`` (re-planning from an observed state), sharing the
         lookups that do not depend on s0; the per-task index starts empty (its tables may)."""
         task = dataclasses.replace(self, initial_state=frozenset(state))
+        _ = self._state_free_tables  # made now (empty) so that what is built in it later is shared
         for name in self._STATE_FREE:
             if name in self.__dict__:
                 task.__dict__[name] = self.__dict__[name]
