@@ -107,9 +107,11 @@ def _explore(
     )
     if users is None:
         users = _consumers(task, actions)
-    heap = [(0.0, atom) for atom in sorted(task.initial_state)]  # sorted: already a heap
-    for _, atom in heap:
+    for atom in task.initial_state:
         cost[atom] = 0.0
+    # Only the s0 atoms some action of the space needs are taken off the heap (the others would fire
+    # nothing, and no action can reach one at less than 0); sorted, the list is already a heap.
+    heap = [(0.0, atom) for atom in sorted(task.initial_state) if users[atom]]
     fired: list[int] = []
 
     def relax(action: GroundAction, pre_cost: float) -> None:
