@@ -8,6 +8,7 @@ from __future__ import annotations
 import pytest
 
 from hbtp import replanning
+from hbtp.bt import tree_of
 from hbtp.bt.disturb import seeded_disturbances
 from hbtp.bt.jsonio import node_to_dict
 from hbtp.domains import Scenario
@@ -15,7 +16,8 @@ from hbtp.logic.task import Goal
 from hbtp.planning import PlanResult, Status
 from hbtp.planning import kept as kept_module
 from hbtp.planning.hints import hints_from_names
-from hbtp.planning.planners import Space
+from hbtp.planning.planners import Space, planner_config
+from hbtp.planning.search import search
 from hbtp.replanning import KeptSearch, Replanner, ReplanOptions
 from helpers import run_tree
 
@@ -121,3 +123,38 @@ def test_the_kept_answers_are_bounded_and_belong_to_one_pruned_space(
     assert kept.recall("none") == (True, None)
     kept.pruned_space(task, hints_from_names(predicates=["Walk"], objects=["apple"]))  # another space
     assert kept.recall("c") == (False, None)
+
+
+@pytest.mark.parametrize("heuristic", ["hmax", "lm"])
+def test_the_hints_space_is_searched_with_its_own_heuristic(robothow_small: Scenario, heuristic: str) -> None:
+    """ReplanOptions.pruned_heuristic (h_max by default) orders the hints' space's search: each re-plan
+    answered there is the tree a plain OBTEA search of the widened space with it gives, at the same
+    optimal cost in that space whichever the heuristic."""
+    task = robothow_small.task
+    goal = task.resolve_goal(GOAL)
+    options = ReplanOptions(max_replans=100, hints=HINTS, pruned_heuristic=heuristic)  # type: ignore[arg-type]
+    policy = Replanner(robothow_small, goal, None, options)
+    other = "lm" if heuristic == "hmax" else "hmax"
+    answered = 0
+    for state in disturbed(robothow_small, goal, 20):
+        assert policy.replan(state, "test")
+        replan = policy.replans[-1]
+        if replan.space is not Space.PRUNED:
+            continue
+        world = task.from_state(state)
+        space = policy.kept.pruned_space(task, HINTS)
+        here = world.resolve_goal(goal)
+        proved = robothow_small.mutexes.proved_only()
+        mutexes = proved if proved.conflict(state) is None else None
+        config, other_config = (planner_config("obtea", heuristic=h) for h in (heuristic, other))  # type: ignore[arg-type]
+        for widened in (space.around, space.beyond):
+            actions = [world.actions[i] for i in widened(state)]
+            mine = search(world, here, actions, config, mutexes=mutexes)
+            if mine.solved:
+                break
+        theirs = search(world, here, actions, other_config, mutexes=mutexes)
+        assert replan.tree is not None
+        assert node_to_dict(replan.tree, task) == node_to_dict(tree_of(mine, "full"), task)
+        assert replan.cost == mine.cost == theirs.cost
+        answered += 1
+    assert answered >= 3

@@ -139,6 +139,8 @@ def test_replan_options_check_their_values() -> None:
         ReplanOptions(budget_s=0)
     with pytest.raises(InputError, match="unknown planner"):
         ReplanOptions(planner="astar")
+    with pytest.raises(InputError, match="heuristic"):
+        ReplanOptions(pruned_heuristic="astar")  # type: ignore[arg-type]
 
 
 # ------------------------------------------------------------------ a toy robot

@@ -181,8 +181,8 @@ class RobustnessConfig:
     planner: str = "hbtp-s"
     heuristic: HeuristicName = HeuristicName.LM
     robust: int = 0
-    #: Also run each tree with re-planning (OBTEA with the landmark heuristic from the state the tree
-    #: fails in): the ``full+replan`` and ``path+replan`` rows.
+    #: Also run each tree with re-planning (OBTEA from the state the tree fails in:
+    #: :class:`hbtp.replanning.ReplanOptions`' defaults): the ``full+replan`` and ``path+replan`` rows.
     replan: bool = False
     #: Re-plans continue the last re-plan's search (:mod:`hbtp.planning.repair`); ``False``: from scratch.
     repair: bool = True

@@ -187,7 +187,7 @@ run_options = option_group(
         type=click.IntRange(0),
         default=0,
         show_default=True,
-        help="Re-plan from the state (OBTEA, landmark heuristic) when no condition of the tree holds, "
+        help="Re-plan from the state (OBTEA) when no condition of the tree holds, "
         "at most this many times per run; 0: never. A tree file that records the hints it was planned "
         "with (an LLM's) is re-planned in their space first, widened by the objects the state changed.",
     ),
