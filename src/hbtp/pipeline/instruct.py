@@ -112,12 +112,15 @@ class GoalChoice:
     message: str = ""
     #: The goal the instruction asks for when it was refused for already holding at the start.
     holding: str | None = None
+    #: What the instruction names that the world lacks, when it was refused for that.
+    lacking: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "instruction": self.instruction,
             "goal": self.goal,
             "holding": self.holding,
+            "lacking": self.lacking,
             "rounds": len(self.attempts),
             "llm_s": round(self.llm_seconds, 6),
             "message": self.message,
@@ -219,7 +222,7 @@ def goal_from_instruction(
         log.info("instruction round %d: %r -> %s", number, proposed, "; ".join(verdict.objections) or "accepted")
         if lacking is not None and verdict.refused:
             message = f"the instruction names {lacking}, which {scenario.name!r} does not have"
-            return GoalChoice(text, None, tuple(attempts), spent, message)
+            return GoalChoice(text, None, tuple(attempts), spent, message, lacking=lacking)
         if not verdict.objections or verdict.doubtful:
             break
         rejected.append(Rejected(proposed or reply.text.strip()[:80], "; ".join(verdict.objections), verdict.never))

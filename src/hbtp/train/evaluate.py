@@ -8,8 +8,9 @@ asks it (the short prompt, constrained decoding), and the answer is judged three
 * NF: the planner, searching only the space the answer names (HBTP-S, as a loop round does),
   finds a tree: the paper's "solved without feedback".
 
-Each held-back instruction is asked as ``plan -i`` asks it: its goal must be the label's (the same
-disjuncts of the same literals), and an instruction about what the world lacks must be refused.
+Each held-back instruction is asked as ``plan -i`` asks it (:func:`hbtp.pipeline.instruct.goal_from_instruction`,
+its checks and feedback rounds included): its goal must be the label's (the same disjuncts of the
+same literals), and an instruction about what the world lacks must be refused.
 
 The model runs in a process of its own (:func:`evaluate_in_child`): torch, which trained it, and
 llama.cpp each bring an OpenMP runtime, and one process should hold one.
@@ -27,14 +28,15 @@ from pathlib import Path
 
 from hbtp.domains import Scenario
 from hbtp.errors import InputError
-from hbtp.llm.backend import PromptStyle
+from hbtp.llm.backend import Backend, PromptStyle
 from hbtp.llm.backends.local import LocalBackend
-from hbtp.llm.goal_prompt import goal_reply, goal_request, refusal_of
+from hbtp.llm.goal_prompt import refusal_of
 from hbtp.llm.parse import parse_reply
 from hbtp.llm.pool import example_pool
 from hbtp.llm.prompt import PromptOptions, build_request
 from hbtp.llm.vocabulary import as_names
 from hbtp.logic.names import ActionNames
+from hbtp.pipeline.instruct import goal_from_instruction
 from hbtp.planning import Limits, plan
 from hbtp.planning.heuristic_names import HeuristicName
 from hbtp.planning.hints import Hints
@@ -51,7 +53,7 @@ ROUND_SECONDS = 5.0
 class HeldOutScore:
     """The share of held-back goals answered exactly, covered and solved without feedback (NF);
     of held-back instructions read as their goal exactly, and of the refusals among them refused;
-    and the model's median seconds per answer."""
+    and the model's median seconds per question (an instruction's feedback rounds together)."""
 
     examples: int
     exact: float
@@ -82,46 +84,67 @@ def _same_goal(reply: str, goal: str) -> bool:
 def evaluate(scenario: Scenario, adapter: Path | None, examples: Sequence[Example], threads: int = 2) -> HeldOutScore:
     """Ask every example of the local model (with ``adapter``) as ``--llm local`` would, and judge the answers."""
     backend = LocalBackend(adapter=adapter, threads=threads)
+    try:
+        return judge(scenario, backend, examples)
+    finally:
+        backend.close()
+
+
+def judge(scenario: Scenario, backend: Backend, examples: Sequence[Example]) -> HeldOutScore:
+    """Ask ``backend`` every example as ``--llm local`` asks it (a taught backend the short prompt, the
+    base model with demonstrations from the world's pool, never of the very goal asked; an
+    instruction through :func:`hbtp.pipeline.instruct.goal_from_instruction`, its checks included),
+    and judge the answers."""
     names = as_names(scenario.task)
-    taught = adapter is not None
-    # the base model is asked as --llm local asks it: with demonstrations from the world's pool
-    # (never one of the very goal asked)
+    taught = bool(getattr(backend, "taught", False))
     pool = [] if taught else example_pool(scenario)
     options = PromptOptions(style=PromptStyle.COMPLETION, taught=taught, exclude_same_goal=True)
-    exact = covered = solved = read = refused = 0
+    exact = covered = solved = 0
     seconds: list[float] = []
     hints_examples = [e for e in examples if e.kind is ExampleKind.HINTS]
     goal_examples = [e for e in examples if e.kind is ExampleKind.GOAL]
-    refusals = [e for e in goal_examples if refusal_of(e.reply) is not None]
-    try:
-        for example in hints_examples:
-            reply = backend.complete(build_request(names, example.goal, pool, options))
-            seconds.append(reply.seconds)
-            hints, label = _answer(names, reply.text), _answer(names, example.reply)
-            exact += hints.path == label.path
-            covered += set(label.predicates) <= set(hints.predicates) and set(label.objects) <= set(hints.objects)
-            result = plan(
-                scenario.task, example.goal, "hbtp-s", hints=hints, space=Space.PRUNED, heuristic=HeuristicName.NONE,
-                mutexes=scenario.mutexes, limits=Limits(time_s=ROUND_SECONDS),
-            )  # fmt: skip
-            solved += result.solved
-        for example in goal_examples:
-            instruction = example.prompt.removeprefix("Instruction: ").removesuffix("\nGoals:")
-            reply = backend.complete(goal_request(scenario.task, instruction, [], taught=taught))
-            seconds.append(reply.seconds)
-            answer = goal_reply(reply.text)
-            if refusal_of(example.reply) is not None:
-                refused += refusal_of(answer) is not None
-            else:
-                read += _same_goal(answer, example.goal)
-    finally:
-        backend.close()
+    for example in hints_examples:
+        reply = backend.complete(build_request(names, example.goal, pool, options))
+        seconds.append(reply.seconds)
+        hints, label = _answer(names, reply.text), _answer(names, example.reply)
+        exact += hints.path == label.path
+        covered += set(label.predicates) <= set(hints.predicates) and set(label.objects) <= set(hints.objects)
+        result = plan(
+            scenario.task, example.goal, "hbtp-s", hints=hints, space=Space.PRUNED, heuristic=HeuristicName.NONE,
+            mutexes=scenario.mutexes, limits=Limits(time_s=ROUND_SECONDS),
+        )  # fmt: skip
+        solved += result.solved
+    read, refused = _instructions(scenario, backend, goal_examples, seconds)
+    refusals = sum(refusal_of(e.reply) is not None for e in goal_examples)
     count, asked = max(1, len(hints_examples)), max(1, len(goal_examples))
     middle = sorted(seconds)[len(seconds) // 2] if seconds else 0.0
     return HeldOutScore(
         len(hints_examples), exact / count, covered / count, solved / count, round(middle, 3),
-        len(goal_examples), (read + refused) / asked, len(refusals), refused / max(1, len(refusals)),
+        len(goal_examples), (read + refused) / asked, refusals, refused / max(1, refusals),
     )  # fmt: skip
+
+
+def _instructions(
+    scenario: Scenario, backend: Backend, examples: Sequence[Example], seconds: list[float]
+) -> tuple[int, int]:
+    """How many instruction ``examples`` were read as their goal, and how many of the refusals among
+    them were refused, by the model or before it was asked (each asked as ``hbtp plan -i`` asks it;
+    the model's seconds for each, its rounds together, added to ``seconds``)."""
+    read = refused = 0
+    for example in examples:
+        instruction = example.prompt.removeprefix("Instruction: ").removesuffix("\nGoals:")
+        lacks = refusal_of(example.reply) is not None
+        try:
+            choice = goal_from_instruction(scenario, instruction, backend)
+        except InputError:  # refused before the model is asked: about nothing the world knows
+            refused += lacks
+            continue
+        seconds.append(choice.llm_seconds)
+        if lacks:
+            refused += choice.lacking is not None
+        elif choice.goal is not None:
+            read += _same_goal(choice.goal, example.goal)
+    return read, refused
 
 
 def _child(source: dict[str, object], adapter: str | None, examples: list[dict[str, str]], out: str) -> None:
