@@ -409,9 +409,10 @@ def test_a_taught_refusal_that_cannot_stand_is_overruled(
     virtualhome: Scenario, instruction: str, refused: str, why: str
 ) -> None:
     """A refusal must name what the instruction says and the world lacks: otherwise the model is
-    asked again, refusals no longer offered, and its goal is used."""
+    asked again, refusals no longer offered, and its goal is used (here even where that goal stands
+    in for the piano the world lacks, which the next test refuses)."""
     backend = Taught([f"Unknown: {refused}", "IsIn_milk_fridge"])
-    choice = goal_from_instruction(virtualhome, instruction, backend)
+    choice = goal_from_instruction(virtualhome, instruction, backend, options=InstructOptions(refuse_lacking=False))
     assert choice.goal == "IsIn_milk_fridge"
     assert choice.attempts[0].objections == (f"refused {refused!r}, {why}",)
     first, second = backend.requests
@@ -497,3 +498,35 @@ def test_a_taught_conjunction_that_leaves_out_a_named_object_is_continued(robowa
     goal = goal_from_instruction(robowaiter, "Switch on the AC and wipe the first table.", done).goal
     assert set((goal or "").split(" & ")) == {"Active_AC", "IsClean_Table1"}
     assert len(done.requests) == 1
+
+
+@pytest.mark.parametrize(
+    ("instruction", "answer", "refused"),
+    [
+        ("put the guitar on the desk", "IsOn_chips_desk", "guitar"),  # the chips stand in for the guitar
+        ("leave the guitars on the kitchen table", "IsOn_chips_kitchentable", "guitars"),
+        ("Store the milk in the fridge and shut the door", "IsIn_milk_fridge & IsClose_fridge", None),
+        ("set the dish bowl on the kitchen table for my cereal", "IsOn_dishbowl_kitchentable", None),
+        ("fan the stove and put the chips on the desk", "IsOn_chips_desk", None),  # "fan": no thing
+        ("put the milk in the piano", "IsIn_milk_fridge", "piano"),
+    ],
+)
+def test_a_goal_standing_in_for_a_thing_the_world_lacks_is_refused(
+    virtualhome: Scenario, instruction: str, answer: str, refused: str | None
+) -> None:
+    """A thing of the words file the world lacks, said as a thing, and a goal about an object the
+    instruction never names in its place: refused with what it lacks; said beside a goal about what
+    the instruction names (the fridge's door, the cereal a bowl is for): the goal stands."""
+    for backend in (Taught([answer]), Scripted([answer])):
+        choice = goal_from_instruction(virtualhome, instruction, backend, instruction_pool(virtualhome))
+        if refused is None:
+            assert choice.goal == answer, choice.message
+            assert choice.lacking is None
+        else:
+            assert choice.goal is None
+            assert choice.lacking == refused
+            assert choice.message == f"the instruction names {refused}, which 'virtualhome' does not have"
+    off = goal_from_instruction(
+        virtualhome, instruction, Taught([answer]), options=InstructOptions(refuse_lacking=False)
+    )
+    assert off.goal == answer

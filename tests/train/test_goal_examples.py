@@ -18,7 +18,6 @@ from hbtp.planning.generate import LEVELS, Sampling, generate_records
 from hbtp.train.examples import ExampleKind, check_disjoint, everyday, goal_key, held_goals, sample_records
 from hbtp.train.goal_examples import (
     about_world,
-    foreign_objects,
     goal_examples,
     instruction_goal,
     kept_atoms,
@@ -86,7 +85,7 @@ def test_a_negation_is_of_an_atom_the_plan_makes_false(virtualhome: Scenario, re
 
 def test_refusals_name_only_what_the_world_lacks(virtualhome: Scenario, records: list) -> None:
     words = words_for(virtualhome)
-    foreign = foreign_objects(virtualhome, words)
+    foreign = words.foreign()
     own = {name.lower() for name in (*virtualhome.task.objects, *virtualhome.task.constants)}
     assert len(foreign) >= 20
     assert not own & set(foreign)

@@ -80,7 +80,9 @@ def test_a_held_back_instruction_is_judged_after_the_pipelines_checks(virtualhom
     score = judge(virtualhome, backend, examples(virtualhome))
     assert (score.examples, score.exact, score.covered, score.nf) == (1, 1.0, 1.0, 1.0)
     assert (score.instructions, score.refusals) == (3, 2)
-    assert score.refused == 0.5  # the piano refused; the guitar read as a goal (the refusal overruled)
-    assert score.instruction_exact == pytest.approx(2 / 3)  # the milk read (TV dropped) and the piano
+    # the piano refused by the model; the guitar's refusal overruled (it named the desk), but the
+    # goal then put the chips, never named, in the guitar's place: refused all the same
+    assert score.refused == 1.0
+    assert score.instruction_exact == 1.0  # and the milk read (the TV dropped)
     assert score.median_seconds == 0.25
     assert sum(p.startswith("Instruction: put the guitar") for p in backend.prompts) == 2  # asked again

@@ -35,6 +35,7 @@ _NUMBERS = ("zero", "one", "two", "three", "four", "five", "six", "seven", "eigh
 _ORDINALS = ("zeroth", "first", "second", "third", "fourth", "fifth", "sixth", "seventh", "eighth", "ninth", "tenth",
              "eleventh", "twelfth", "thirteenth", "fourteenth", "fifteenth", "sixteenth", "seventeenth", "eighteenth",
              "nineteenth", "twentieth")  # fmt: skip
+_ALNUM = re.compile(r"[a-z0-9]+")
 _DETERMINERS = frozenset(("the", "a", "an", "my", "your", "our", "his", "her", "their", "this", "that", "these",
                           "those", "some"))  # fmt: skip
 
@@ -139,6 +140,48 @@ class Words:
                 taken |= span
                 named.add(name)
         return frozenset(named)
+
+    def foreign(self) -> list[str]:
+        """Things of the words file (nouns said with "the") that this world lacks, and whose names
+        share no word with the names of this world's objects (so a text naming one names nothing the
+        world has), by key."""
+        data = self.data
+        if data is None:
+            return []
+        own = {name.lower() for name in self.objects}
+        taken = {w for noun in self.objects.values() for name in noun.names for w in _ALNUM.findall(name.lower())}
+        taken -= {"the", "a", "an", "your", "my"}
+        foreign = []
+        for key, entry in sorted(data.objects.items()):
+            spoken = {w for name in entry.names for w in _ALNUM.findall(name.lower())}
+            if key not in own and entry.article and not entry.agent and not spoken & taken:
+                foreign.append(key)
+        return foreign
+
+    def lacking_in(self, text: str) -> tuple[str, ...]:
+        """The things of :meth:`foreign` that ``text`` names as things: one of their names (or its
+        plural) right after a determiner ("bring me the guitar", "some lemons"; not "fan the
+        flames"), each as said, in the order said."""
+        data = self.data
+        if data is None:
+            return ()
+        words = _ALNUM.findall(text.lower())
+        found: list[tuple[int, str]] = []
+        for key in self.foreign():
+            for name in data.objects[key].names:
+                run = tuple(_ALNUM.findall(name.lower()))
+                for start in range(1, len(words) - len(run) + 1):
+                    if words[start - 1] in _DETERMINERS and _says(words[start : start + len(run)], run):
+                        found.append((start, " ".join(words[start : start + len(run)])))
+        return tuple(dict.fromkeys(said for _, said in sorted(found)))
+
+
+def _says(words: Sequence[str], run: tuple[str, ...]) -> bool:
+    """Whether ``words`` are the name ``run``, its last word maybe plural (``s`` or ``es``)."""
+    if tuple(words[:-1]) != run[:-1]:
+        return False
+    last, said = run[-1], words[-1]
+    return said in (last, last + "s", last + "es")
 
 
 def spoken_words(text: str) -> tuple[str, ...]:

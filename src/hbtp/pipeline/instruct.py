@@ -74,6 +74,9 @@ class InstructOptions:
     #: Drop a taught model's literals about objects the instruction does not name (when it names
     #: those of other literals of the same conjunction): :func:`unsaid_dropped`.
     drop_unsaid: bool = True
+    #: Refuse a goal that puts an object the instruction never names in the place of a thing it names
+    #: that the world lacks (:func:`substituted`).
+    refuse_lacking: bool = True
 
 
 @dataclass(frozen=True)
@@ -221,8 +224,7 @@ def goal_from_instruction(
                                     verdict.doubtful, reply.seconds))  # fmt: skip
         log.info("instruction round %d: %r -> %s", number, proposed, "; ".join(verdict.objections) or "accepted")
         if lacking is not None and verdict.refused:
-            message = f"the instruction names {lacking}, which {scenario.name!r} does not have"
-            return GoalChoice(text, None, tuple(attempts), spent, message, lacking=lacking)
+            return GoalChoice(text, None, tuple(attempts), spent, lacks(scenario, lacking), lacking=lacking)
         if not verdict.objections or verdict.doubtful:
             break
         rejected.append(Rejected(proposed or reply.text.strip()[:80], "; ".join(verdict.objections), verdict.never))
@@ -231,7 +233,35 @@ def goal_from_instruction(
     cover = options.cover and backend.prompt_style is PromptStyle.COMPLETION
     if cover and attempts and attempts[-1].accepted:
         spent += _cover(scenario, text, backend, request, attempts, deadline, by_words=taught)
-    return _choose(text, attempts, spent)
+    return _refused_if_substituted(scenario, _choose(text, attempts, spent), options)
+
+
+def _refused_if_substituted(scenario: Scenario, choice: GoalChoice, options: InstructOptions) -> GoalChoice:
+    """``choice`` refused when its goal stands in for a thing the instruction names and the world lacks."""
+    if not options.refuse_lacking or choice.goal is None:
+        return choice
+    strangers = substituted(scenario, choice.instruction, choice.goal)
+    return replace(choice, goal=None, message=lacks(scenario, strangers), lacking=strangers) if strangers else choice
+
+
+def substituted(scenario: Scenario, text: str, goal: str) -> str:
+    """What ``text`` names that the world lacks (a noun of the words file said as a thing, "the
+    guitar": :meth:`hbtp.domains.words.Words.lacking_in`), when ``goal`` puts an object the
+    instruction never names in its place ("put the guitar on the desk" read as ``IsOn_chips_desk``:
+    a model under a grammar answers with the world's objects); else ``""``. A thing the world lacks
+    said beside what the goal is about ("shut the door" of the fridge, "for my cereal") is no reason."""
+    words = words_for(scenario)
+    strangers = words.lacking_in(text)
+    if not strangers:
+        return ""
+    objects = {x for term in parse_goal(goal) for atom in term for x in atom.args}
+    objects = {x for x in objects if x.lower() not in PLACEHOLDERS and not words.noun(x).agent}
+    return " and ".join(strangers) if objects - _spoken_objects(words, text) else ""
+
+
+def lacks(scenario: Scenario, things: str) -> str:
+    """The reason an instruction is refused for naming ``things`` the world lacks."""
+    return f"the instruction names {things}, which {scenario.name!r} does not have"
 
 
 def _verdict(scenario: Scenario, text: str, proposed: str, lacking: str | None) -> Verdict:
@@ -373,4 +403,5 @@ __all__ = [
     "false_refusal",
     "goal_from_instruction",
     "instruction_pool",
+    "substituted",
 ]

@@ -68,8 +68,6 @@ SELF_KEPT = 0.15
 #: The labelling search's bound for a goal built of several labelled ones (*group*, *both*).
 LABEL_EXPANSIONS = 20_000
 
-_WORD = re.compile(r"[a-z0-9]+")
-
 
 def negatable(scenario: Scenario, record: Record) -> list[Atom]:
     """The fluent atoms that hold at the start and no longer hold after ``record``'s plan: their
@@ -238,24 +236,6 @@ def about_world(record: Record, words: Words, rng: random.Random) -> Record:
     return replace(record, goal=" & ".join(kept))
 
 
-def foreign_objects(scenario: Scenario, words: Words) -> list[str]:
-    """Things of the words file (nouns said with "the") that this world lacks, and whose names share
-    no word with the names of this world's objects (so an instruction naming one names nothing the
-    world has)."""
-    data = words.data
-    if data is None:
-        return []
-    own = {name.lower() for name in (*scenario.task.objects, *scenario.task.constants)}
-    taken = {w for noun in words.objects.values() for name in noun.names for w in _WORD.findall(name.lower())}
-    taken -= {"the", "a", "an", "your", "my"}
-    foreign = []
-    for key, entry in sorted(data.objects.items()):
-        spoken = {w for name in entry.names for w in _WORD.findall(name.lower())}
-        if key not in own and entry.article and not entry.agent and not spoken & taken:
-            foreign.append(key)
-    return foreign
-
-
 def refusal_example(
     scenario: Scenario, record: Record, foreign: Sequence[str], words: Words, rng: random.Random
 ) -> Example | None:
@@ -286,7 +266,7 @@ def goal_examples(scenario: Scenario, records: Sequence[Record], seed: int, per_
     :data:`REFUSALS` of them; the same for the same seed."""
     rng = random.Random(f"goal-examples|{seed}")
     words = words_for(scenario)
-    foreign = foreign_objects(scenario, words)
+    foreign = words.foreign()
     alike = _Alike(scenario, words)
     examples: list[Example] = []
     held = held_goals(scenario)
@@ -316,7 +296,6 @@ __all__ = [
     "SELF_KEPT",
     "SHAPES",
     "about_world",
-    "foreign_objects",
     "goal_examples",
     "instruction_goal",
     "kept_atoms",
