@@ -62,9 +62,10 @@ def model_cache_dir() -> Path:
 
 
 #: Threads that generate the reply, token by token (the prompt is read with all of ``threads``).
-#: Measured on 2 cores: the 270M model decodes 22 tokens/s with one thread or two, and with an
-#: adapter (its small extra operations make two threads wait on each other) 20.8 tokens/s with one
-#: against 12.5 with two; reading a 789-token prompt takes 363 tokens/s with two, 208 with one.
+#: Measured on 2 cores: with an adapter (its small extra operations make two threads wait on each
+#: other) the 270M model decodes 61 tokens/s with one thread against 25 with two (taught Table II
+#: replies; on a slower day of the same VM 20.8 against 12.5); reading a 789-token prompt takes 363
+#: tokens/s with two, 208 with one.
 DECODE_THREADS = 1
 
 
