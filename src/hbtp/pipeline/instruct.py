@@ -254,8 +254,7 @@ def substituted(scenario: Scenario, text: str, goal: str) -> str:
     strangers = words.lacking_in(text)
     if not strangers:
         return ""
-    objects = {x for term in parse_goal(goal) for atom in term for x in atom.args}
-    objects = {x for x in objects if x.lower() not in PLACEHOLDERS and not words.noun(x).agent}
+    objects = {x for term in parse_goal(goal) for atom in term for x in _about(words, atom)}
     return " and ".join(strangers) if objects - _spoken_objects(words, text) else ""
 
 
@@ -303,14 +302,10 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
         return goal
     words = words_for(scenario)
     spoken = _spoken_objects(words, text)
-
-    def about(literal: Atom) -> set[str]:
-        return {x for x in literal.args if x.lower() not in PLACEHOLDERS and not words.noun(x).agent}
-
     kept, dropped = [], []
     for term in terms:
-        said = [literal for literal in term if not about(literal) or about(literal) & spoken]
-        if any(about(literal) for literal in said) and len(said) < len(term):
+        said = [literal for literal in term if not _about(words, literal) or _about(words, literal) & spoken]
+        if any(_about(words, literal) for literal in said) and len(said) < len(term):
             dropped += [literal.underscored for literal in term if literal not in said]
             term = tuple(said)
         kept.append(term)
@@ -318,6 +313,11 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
         return goal
     log.info("instruction: left out %s (the instruction names none of their objects)", ", ".join(dropped))
     return format_goal(kept)
+
+
+def _about(words: Words, literal: Atom) -> set[str]:
+    """The objects ``literal`` is about: its arguments but the robot and placeholders."""
+    return {x for x in literal.args if x.lower() not in PLACEHOLDERS and not words.noun(x).agent}
 
 
 def _spoken_objects(words: Words, text: str) -> frozenset[str]:

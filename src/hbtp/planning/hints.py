@@ -182,21 +182,25 @@ class PrunedSpace:
         """The actions that undo a change of ``state`` from the task's start state: delete an atom it
         gained (unless an action of ``space`` deletes it already: a walk in the space takes the robot
         away from where it was moved to), or add one it lost."""
-        start, achievers, deleters = self.task.initial_state, self.task.achievers, self.deleters
-        undo = {index for atom in start - state for index in achievers[atom]}
+        start = self.task.initial_state
+        undo = {index for atom in start - state for index in self._undoers(atom, gained=False)}
         for atom in state - start:
-            found = deleters.get(atom, ())
+            found = self._undoers(atom, gained=True)
             if not any(index in space for index in found):
                 undo.update(found)
         return undo
 
+    def _undoers(self, atom: int, *, gained: bool) -> Sequence[int]:
+        """The actions that undo a change of ``atom``: delete it (``gained``) or add it (lost)."""
+        return self.deleters.get(atom, ()) if gained else self.task.achievers[atom]
+
     def _undo_predicates(self, atom: int, gained: bool) -> frozenset[str]:
-        """The predicates of the actions that delete ``atom`` (``gained``) or add it (kept per atom)."""
+        """The predicates of :meth:`_undoers` (kept per atom)."""
         key = (atom, gained)
         known = self._undo_names.get(key)
         if known is None:
-            found = self.deleters.get(atom, ()) if gained else self.task.achievers[atom]
-            known = self._undo_names[key] = frozenset(self.task.actions[index].predicate for index in found)
+            actions = self.task.actions
+            known = self._undo_names[key] = frozenset(actions[i].predicate for i in self._undoers(atom, gained=gained))
         return known
 
     def around(self, state: Iterable[int]) -> tuple[int, ...]:
