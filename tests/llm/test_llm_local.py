@@ -371,3 +371,24 @@ def test_one_thread_generates_and_all_of_them_read_the_prompt(tiny_gguf: Path) -
     params = make_params(_fake_xllamacpp(None), tiny_gguf, threads=2, context=512)
     assert params.cpuparams.n_threads == DECODE_THREADS == 1
     assert params.cpuparams_batch.n_threads == 2
+
+
+def test_a_taught_model_reads_its_short_prompts_with_one_thread(
+    monkeypatch: pytest.MonkeyPatch, tiny_gguf: Path
+) -> None:
+    from hbtp.llm.backends import local
+
+    started: list[Any] = []
+
+    def server(params: Any) -> Any:
+        started.append(params)
+        return SimpleNamespace(handle_completions=lambda body: {})
+
+    fake = SimpleNamespace(**vars(_fake_xllamacpp(server)), CommonAdapterLoraInfo=lambda *info: info)
+    monkeypatch.setattr(local, "import_xllamacpp", lambda: fake)
+    for adapter, prompt_threads in ((None, 2), (tiny_gguf, local.TAUGHT_PROMPT_THREADS)):
+        backend = local.LocalBackend(model_path=tiny_gguf, threads=2, adapter=adapter)
+        backend.load()
+        assert started[-1].cpuparams_batch.n_threads == prompt_threads
+        assert started[-1].cpuparams.n_threads == local.DECODE_THREADS
+        backend._server = None

@@ -13,18 +13,23 @@ from pathlib import Path
 
 import pytest
 
-from hbtp.domains import Scenario
+from hbtp.domains import Scenario, load_scenario
+from hbtp.llm.backend import PromptStyle
 from hbtp.llm.backends.adapters import (
     KEY_BASE,
+    KEY_FORMAT,
     KEY_WORLD,
+    PROMPT_FORMAT,
     AdapterChoice,
     AdapterMode,
     choose_adapter,
     read_metadata,
+    spelling_of,
     unfit,
     world_key,
 )
-from hbtp.llm.prompt import taught_prompt
+from hbtp.llm.prompt import PromptOptions, build_request, taught_prompt
+from hbtp.llm.spelling import Spelling, read_plan
 from hbtp.planning import plan
 from hbtp.train.example_set import make_examples
 from hbtp.train.examples import (
@@ -59,7 +64,9 @@ def test_examples_are_optimal_labels_in_the_short_prompt(robowaiter: Scenario, r
         assert example.reply.startswith(" ")
         assert example.reply.endswith("\n\n")
         # the label's plan reaches the goal, and no plan is cheaper (an independent optimal search)
-        actions = [task.action(name) for name in example.reply.split("\n")[0].strip().split(", ") if name]
+        line = example.reply.split("\n")[0]
+        actions = [task.action(name) for name in read_plan(line).strip().split(", ") if name]
+        assert line == Spelling.SPACED.plan(action.signature for action in actions)  # the tokens it saves
         state = task.initial_state
         for action in actions:
             assert action.applicable(state)
@@ -98,7 +105,7 @@ def test_a_leak_is_refused(robowaiter: Scenario, robowaiter_examples: object) ->
     from hbtp.datasets import load_dataset
 
     leaked = load_dataset("table2_robowaiter_50")[0]
-    examples = [*robowaiter_examples.train, hints_example(leaked)]  # type: ignore[attr-defined]
+    examples = [*robowaiter_examples.train, hints_example(leaked, robowaiter.task)]  # type: ignore[attr-defined]
     with pytest.raises(LeakError, match=r"1 training goal\(s\) belong to an evaluation set of 'robowaiter'"):
         check_disjoint(examples, held_goals(robowaiter), robowaiter.name)
 
@@ -127,7 +134,7 @@ def test_a_world_too_small_to_sample_is_refused(tmp_path: Path) -> None:
 
 
 # ----------------------------------------------------------------------------- choosing adapters
-def _gguf(path: Path, fields: dict[str, str | float], tensors: dict[str, tuple[int, int]] | None = None) -> Path:
+def _gguf(path: Path, fields: dict[str, str | float | int], tensors: dict[str, tuple[int, int]] | None = None) -> Path:
     """A GGUF file with ``fields`` as metadata and F32 ``tensors`` of the given ggml shapes (zeros)."""
     tensors = tensors or {}
     data = b"GGUF" + struct.pack("<IQQ", 3, len(tensors), len(fields))
@@ -135,6 +142,8 @@ def _gguf(path: Path, fields: dict[str, str | float], tensors: dict[str, tuple[i
         data += struct.pack("<Q", len(key)) + key.encode()
         if isinstance(value, float):
             data += struct.pack("<I", 6) + struct.pack("<f", value)
+        elif isinstance(value, int):
+            data += struct.pack("<I", 4) + struct.pack("<I", value)  # uint32
         else:
             data += struct.pack("<I", 8) + struct.pack("<Q", len(value)) + value.encode()
     offset = 0
@@ -184,6 +193,18 @@ def test_adapter_metadata_is_read_and_checked(tmp_path: Path) -> None:
     assert "cannot be read" in (unfit(tmp_path / "junk.gguf", world=None, base_sha256=None) or "")
     (tmp_path / "text.gguf").write_text("hello")
     assert "not a GGUF file" in (unfit(tmp_path / "text.gguf", world=None, base_sha256=None) or "")
+
+
+def test_adapters_of_both_prompt_formats_fit_and_say_their_spelling(tmp_path: Path) -> None:
+    """Format 2 adapters (plans spelled ``Walk_milk``) are still used; format 3 spells ``Walk milk``;
+    an unknown format is refused."""
+    for written, spelling in ((2, Spelling.UNDERSCORED), (3, Spelling.SPACED)):
+        path = _gguf(tmp_path / f"f{written}.gguf", {**ADAPTER, KEY_FORMAT: written})
+        assert unfit(path, world=None, base_sha256=None) is None
+        assert spelling_of(path) is spelling
+    assert PROMPT_FORMAT == 3  # what hbtp train teaches now
+    unknown = _gguf(tmp_path / "f9.gguf", {**ADAPTER, KEY_FORMAT: 9})
+    assert "prompt format 9" in (unfit(unknown, world=None, base_sha256=None) or "")
 
 
 def test_an_unfit_adapter_is_left_out_with_one_warning(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
@@ -313,6 +334,20 @@ def test_a_tiny_training_run_writes_an_adapter_xllamacpp_applies(
     assert fields["general.type"] == "adapter"
     assert fields["hbtp.scenario"] == "robowaiter"
     assert unfit(out, world=fields[KEY_WORLD], base_sha256=fields[KEY_BASE] or None) is None
+    assert fields[KEY_FORMAT] == PROMPT_FORMAT
+    assert spelling_of(out) is Spelling.SPACED
+    # llama.cpp answers in the spaced spelling the grammar allows; the backend gives it back in the
+    # datasets' spelling, every name an action of the world
+    world = load_scenario("robowaiter")
+    from hbtp.llm.backends.local import LocalBackend
+
+    with LocalBackend(adapter=out, threads=1) as backend:
+        options = PromptOptions().for_backend(PromptStyle.COMPLETION, True, backend.spelling)
+        reply = backend.complete(build_request(world.task, "On_Coffee_Table1", [], options))
+    names = reply.text.strip().split(", ")
+    assert names
+    assert all(world.task.action(name) for name in names)
+    assert " " not in reply.text.strip().replace(", ", "")
     # the same command again: every step is in the checkpoint, the same adapter comes out
     first = out.read_bytes()
     assert main([*argv[:-1]]) == 0

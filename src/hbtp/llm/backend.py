@@ -21,6 +21,7 @@ from typing import Any, Protocol
 
 from hbtp.deadline import Deadline
 from hbtp.llm.constrain import Constraint
+from hbtp.llm.spelling import Spelling
 from hbtp.logic.goal import Goal
 
 
@@ -64,6 +65,9 @@ class Request:
     #: The completion prompt is the short one of a model taught the world (a local adapter answers
     #: it; a few-shot prompt is answered by the base model alone).
     taught: bool = False
+    #: How the plan a taught model answers spells its actions (its adapter's): the prompt's plan so
+    #: far and the grammar are spelled so; the backend gives the reply back in the datasets' spelling.
+    spelling: Spelling = Spelling.UNDERSCORED
 
     def key(self) -> str:
         """A stable hash of what the model is asked (for record/replay).

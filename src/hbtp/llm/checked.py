@@ -34,6 +34,7 @@ from hbtp.errors import InputError
 from hbtp.llm.backend import Reply, Request
 from hbtp.llm.constrain import Bounds, constraint_of
 from hbtp.llm.parse import parse_reply
+from hbtp.logic.atoms import Atom
 from hbtp.logic.goal import Goal
 from hbtp.logic.task import GroundAction, GroundTask, State
 from hbtp.planning.heuristic_names import HeuristicName
@@ -86,8 +87,8 @@ class _Simulation:
     def reached(self) -> bool:
         return self.goal.holds(self.state)
 
-    def applicable(self) -> list[str]:
-        return sorted(a.signature.underscored for a in self.task.actions if a.applicable(self.state))
+    def applicable(self) -> list[Atom]:
+        return [a.signature for a in self.task.actions if a.applicable(self.state)]
 
     def action(self, name: str) -> GroundAction | None:
         try:
@@ -170,12 +171,17 @@ def checked_answer(
         allowed = simulation.applicable()
         if not allowed:
             break
-        so_far = " " + ", ".join(simulation.plan) + "," if simulation.plan else ""
+        spelled = request.spelling.plan(simulation.task.action(name).signature for name in simulation.plan)
+        so_far = spelled + "," if simulation.plan else ""
         step = replace(
             request,
             completion_prompt=request.completion_prompt + so_far,
             constraint=constraint_of(
-                task, Bounds(actions=MAX_ACTIONS - len(simulation.plan)), path_only=True, first=allowed
+                task,
+                Bounds(actions=MAX_ACTIONS - len(simulation.plan)),
+                path_only=True,
+                first=allowed,
+                spelling=request.spelling,
             ),
             attempt=len(calls),
         )

@@ -30,7 +30,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from hbtp.datasets.reply import OBJECTS, PREDICATES, format_reply
+from hbtp.llm.spelling import Spelling
 from hbtp.llm.vocabulary import as_names
+from hbtp.logic.atoms import Atom
 from hbtp.logic.names import ActionNames
 from hbtp.logic.tables import TaskTable
 from hbtp.logic.task import GroundTask
@@ -89,21 +91,24 @@ def constraint_of(
     bounds: Bounds = Bounds(),
     *,
     path_only: bool = False,
-    first: Iterable[str] | None = None,
+    first: Iterable[Atom] | None = None,
+    spelling: Spelling = Spelling.UNDERSCORED,
 ) -> Constraint:
     """The constraint of the replies for a task (or its action names) with lists of at most ``bounds`` items.
 
     ``path_only``: the reply is the first line alone (a taught model's, :func:`hbtp.llm.prompt.taught_reply`).
     ``first``: the path's first action is one of these (a plan continued where they apply,
     :mod:`hbtp.llm.checked`), the others any action.
+    ``spelling``: how the path's actions are spelled (a taught model's, :mod:`hbtp.llm.spelling`).
     The rules of the names are built once per task (kept with its names); only the first lines,
     which hold the bounds and ``first``, change from request to request."""
     task = as_names(source)
-    rules, action_pattern = _NAME_RULES.of(task, lambda: _names(task))
+    rules, action_pattern = _NAME_RULES.of(task, lambda: _names(task, spelling), key=spelling)
     predicates, objects = task.action_predicates, task.symbols
     lists = f'" " {_bounded("action" if first is None else "first", bounds.actions, then="action")}'
     if first is not None:
-        rules = f"first ::= {' | '.join(gbnf_literal(name) for name in sorted(first))}\n" + rules
+        spelled = sorted(spelling.write(action) for action in first)
+        rules = f"first ::= {' | '.join(gbnf_literal(name) for name in spelled)}\n" + rules
     if not path_only:
         lists += (
             f' "\\n{PREDICATES}: " {_bounded("predicate", _at_most(bounds.predicates, predicates))}'
@@ -131,7 +136,8 @@ def _bounded(item: str, bound: int, then: str | None = None) -> str:
 class NameRules:
     """GBNF rules and the equivalent regular expressions, shared by the sets of suffixes they match."""
 
-    def __init__(self, categories: Mapping[str, Iterable[str]]) -> None:
+    def __init__(self, categories: Mapping[str, Iterable[str]], separator: str = "_") -> None:
+        self.separator = separator
         self.names: dict[frozenset[str], str] = {frozenset(m): name.lower() for name, m in categories.items()}
         self.rules: dict[str, str] = {}
         self.regex: dict[frozenset[tuple[str, ...]], str] = {}
@@ -148,7 +154,8 @@ class NameRules:
         return self.by_values[values]
 
     def suffixes(self, tuples: frozenset[tuple[str, ...]]) -> tuple[str, str]:
-        """A GBNF expression and a regex matching ``"_" + "_".join(t)`` for exactly the ``tuples``."""
+        """A GBNF expression and a regex matching ``sep + sep.join(t)`` for exactly the ``tuples``
+        (``sep``: the separator, ``_`` unless the names are spelled otherwise)."""
         if tuples == frozenset({()}):
             return '""', ""
         if tuples not in self.by_suffixes:
@@ -162,8 +169,9 @@ class NameRules:
             for tails, firsts in sorted(groups.items(), key=lambda item: sorted(item[1])):
                 tail, tail_regex = self.suffixes(tails)
                 head = self.alternatives(frozenset(firsts))
-                grammar.append(f'"_" {head}' + ("" if tail == '""' else f" {tail}"))
-                regex.append("_(?:" + "|".join(re.escape(v) for v in sorted(firsts)) + ")" + tail_regex)
+                grammar.append(f"{gbnf_literal(self.separator)} {head}" + ("" if tail == '""' else f" {tail}"))
+                alternatives = "|".join(re.escape(v) for v in sorted(firsts))
+                regex.append(f"{re.escape(self.separator)}(?:{alternatives})" + tail_regex)
             name = f"s{len(self.by_suffixes)}"
             self.rules[name] = " | ".join(f"( {g} )" for g in grammar)
             self.by_suffixes[tuples] = name
@@ -171,9 +179,9 @@ class NameRules:
         return self.by_suffixes[tuples], self.regex[tuples]
 
 
-def _names(task: ActionNames) -> tuple[str, str]:
+def _names(task: ActionNames, spelling: Spelling = Spelling.UNDERSCORED) -> tuple[str, str]:
     """The GBNF rules of ``action``, ``predicate`` and ``object``, and the regex of an action name."""
-    rules = NameRules(task.categories)
+    rules = NameRules(task.categories, spelling.value)
     objects_of: dict[str, set[tuple[str, ...]]] = {}
     for action in task.actions:
         objects_of.setdefault(action.predicate, set()).add(action.args)

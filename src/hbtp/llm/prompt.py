@@ -27,8 +27,9 @@ from hbtp.datasets.records import Record
 from hbtp.errors import InputError
 from hbtp.llm.backend import Message, PromptStyle, Request
 from hbtp.llm.constrain import Bounds, Constraint, constraint_of
+from hbtp.llm.spelling import Spelling
 from hbtp.llm.vocabulary import as_names, vocabulary_of
-from hbtp.logic.atoms import parse_conjunction
+from hbtp.logic.atoms import Atom, parse_conjunction
 from hbtp.logic.names import ActionNames
 from hbtp.logic.task import GroundTask
 
@@ -87,6 +88,8 @@ class PromptOptions:
     #: The backend is a model taught the domain (a local adapter, :mod:`hbtp.train`): its
     #: completion prompt is the question alone (:func:`taught_prompt`), no vocabulary, no demonstrations.
     taught: bool = False
+    #: How a taught model spells the actions of its plan (its adapter's, :mod:`hbtp.llm.spelling`).
+    spelling: Spelling = Spelling.UNDERSCORED
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "retrieval", Retrieval.named(self.retrieval))
@@ -97,10 +100,13 @@ class PromptOptions:
                 choices = ", ".join(s.value for s in PromptStyle)
                 raise InputError(f"unknown prompt style {self.style!r}; choose one of: {choices}") from None
 
-    def for_backend(self, style: PromptStyle, taught: bool = False) -> PromptOptions:
-        """These options with ``style`` where none was chosen, for a backend ``taught`` the domain or not."""
+    def for_backend(
+        self, style: PromptStyle, taught: bool = False, spelling: Spelling = Spelling.UNDERSCORED
+    ) -> PromptOptions:
+        """These options with ``style`` where none was chosen, for a backend ``taught`` the domain or
+        not (with the ``spelling`` of the actions it was taught)."""
         chosen = self if self.style is not None else replace(self, style=style)
-        return chosen if chosen.taught == taught else replace(chosen, taught=taught)
+        return replace(chosen, taught=taught, spelling=spelling)
 
 
 @dataclass(frozen=True)
@@ -191,14 +197,14 @@ def taught_prompt(goal: str) -> str:
     return f"Goals: {_normal_goal(goal)}\nOptimal Actions:"
 
 
-def taught_reply(record: Record) -> str:
-    """What a taught model learns to answer :func:`taught_prompt` with: the record's plan, then the
-    blank line that ends a reply (a stop string).
+def taught_reply(plan: Iterable[Atom], spelling: Spelling = Spelling.UNDERSCORED) -> str:
+    """What a taught model learns to answer :func:`taught_prompt` with: an optimal ``plan``, in
+    ``spelling``, then the blank line that ends a reply (a stop string).
 
     The plan alone: the vital predicates and objects of an optimal label are the plan's own
     (Q̂ = Q(p̂), Ô = O(p̂)), which the pruning adds to any reply anyway, so a taught model does not
     spend tokens on them."""
-    return " " + ", ".join(record.optimal_actions) + "\n\n"
+    return spelling.plan(plan) + "\n\n"
 
 
 def build_request(
@@ -232,6 +238,7 @@ def build_request(
         stop=("\n\n", "Goals:"),
         constraint=constraint,
         taught=options.taught,
+        spelling=options.spelling,
     )
 
 
@@ -250,7 +257,7 @@ def _constraint(
     if not options.constrain:
         return None
     lengths = [(len(r.optimal_actions), len(r.vital_predicates), len(r.vital_objects)) for r in examples]
-    return constraint_of(task, Bounds.after(lengths), path_only=options.taught)
+    return constraint_of(task, Bounds.after(lengths), path_only=options.taught, spelling=options.spelling)
 
 
 def _max_tokens(options: PromptOptions, constraint: Constraint | None) -> int:

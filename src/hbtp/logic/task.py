@@ -22,7 +22,7 @@ from hbtp.logic.goal import Goal, GoalIds, disjuncts_of
 from hbtp.logic.goals import GoalFormula
 from hbtp.logic.resolve import check_literal, resolve_goal
 from hbtp.logic.suggest import did_you_mean, listing
-from hbtp.logic.tables import Tables
+from hbtp.logic.tables import Tables, TaskTable
 
 State = frozenset[int]
 _T = TypeVar("_T")
@@ -233,12 +233,20 @@ class GroundTask:
             raise UnknownSymbolError(f"literal {atom} never occurs in task {self.name!r}") from None
 
     def action(self, name: Atom | str) -> GroundAction:
-        """The grounded action named ``Walk(apple)`` or ``Walk_apple``."""
+        """The grounded action named ``Walk(apple)`` or ``Walk_apple`` (also where a name has
+        underscores of its own: ``make_sandwich_s1_b1`` of PDDL's ``make_sandwich``)."""
         signature = self.spelled(parse_atom(name) if isinstance(name, str) else name, action=True)
         try:
             return self.actions[self.action_ids[signature]]
         except KeyError:
-            raise UnknownSymbolError(f"action {signature} is not a grounded action of {self.name!r}") from None
+            index = (
+                _UNDERSCORED_ACTIONS.of(self, lambda: _underscored_actions(self)).get(name)
+                if isinstance(name, str)
+                else None
+            )
+            if index is None:
+                raise UnknownSymbolError(f"action {signature} is not a grounded action of {self.name!r}") from None
+            return self.actions[index]
 
     def names(self, ids: Iterable[int]) -> list[str]:
         """Readable, sorted names of a set of atom ids."""
@@ -257,6 +265,15 @@ class GroundTask:
     def restricted(self, action_ids: Iterable[int]) -> tuple[GroundAction, ...]:
         """The actions with the given indices, in task order (an action space for the planner)."""
         return tuple(self.actions[i] for i in sorted(set(action_ids)))
+
+
+#: Each action's index by its name in the datasets' spelling, which cannot be split into the
+#: predicate and objects when they hold underscores themselves (read only for such a name).
+_UNDERSCORED_ACTIONS: TaskTable[dict[str, int]] = TaskTable("the actions by their underscored names", state_free=True)
+
+
+def _underscored_actions(task: GroundTask) -> dict[str, int]:
+    return {action.signature.underscored: action.index for action in task.actions}
 
 
 __all__ = [

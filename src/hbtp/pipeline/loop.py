@@ -40,6 +40,7 @@ from hbtp.llm.grammar import GrammarCheck, check_reply
 from hbtp.llm.parse import parse_reply
 from hbtp.llm.prompt import Feedback, PromptOptions, build_request, feedback_request, retry_request
 from hbtp.llm.redact import redact
+from hbtp.llm.spelling import Spelling
 from hbtp.logic.names import ActionNames
 from hbtp.logic.task import Goal, GroundTask
 from hbtp.pipeline.results import REPEATED, Exchange, LoopResult, Outcome, RoundRecord, call_record
@@ -245,7 +246,9 @@ class _Loop:
         self.deadline = deadline
         self.world, self.names, self.goal = world, world.names, goal
         self.pool, self.options = pool, options
-        self.prompt = options.prompt.for_backend(backend.prompt_style, taught=getattr(backend, "taught", False))
+        self.prompt = options.prompt.for_backend(
+            backend.prompt_style, getattr(backend, "taught", False), getattr(backend, "spelling", Spelling.UNDERSCORED)
+        )
         self.config = planner_config(options.planner, heuristic=options.heuristic)
         self.progress = options.progress or _quiet
         checking = None

@@ -34,6 +34,7 @@ from hbtp.llm.goal_prompt import refusal_of
 from hbtp.llm.parse import parse_reply
 from hbtp.llm.pool import example_pool
 from hbtp.llm.prompt import PromptOptions, build_request
+from hbtp.llm.spelling import Spelling, read_plan
 from hbtp.llm.vocabulary import as_names
 from hbtp.logic.names import ActionNames
 from hbtp.pipeline.instruct import goal_from_instruction
@@ -98,7 +99,9 @@ def judge(scenario: Scenario, backend: Backend, examples: Sequence[Example]) -> 
     names = as_names(scenario.task)
     taught = bool(getattr(backend, "taught", False))
     pool = [] if taught else example_pool(scenario)
-    options = PromptOptions(style=PromptStyle.COMPLETION, taught=taught, exclude_same_goal=True)
+    options = PromptOptions(style=PromptStyle.COMPLETION, exclude_same_goal=True).for_backend(
+        PromptStyle.COMPLETION, taught, getattr(backend, "spelling", Spelling.UNDERSCORED)
+    )
     exact = covered = solved = 0
     seconds: list[float] = []
     hints_examples = [e for e in examples if e.kind is ExampleKind.HINTS]
@@ -106,7 +109,7 @@ def judge(scenario: Scenario, backend: Backend, examples: Sequence[Example]) -> 
     for example in hints_examples:
         reply = backend.complete(build_request(names, example.goal, pool, options))
         seconds.append(reply.seconds)
-        hints, label = _answer(names, reply.text), _answer(names, example.reply)
+        hints, label = _answer(names, reply.text), _answer(names, read_plan(example.reply))
         exact += hints.path == label.path
         covered += set(label.predicates) <= set(hints.predicates) and set(label.objects) <= set(hints.objects)
         result = plan(

@@ -52,7 +52,7 @@ def make_examples(
         )
     parts = []
     for index, part in enumerate(split(records, held_out, seed)):
-        examples = [hints_example(record) for record in part]
+        examples = [hints_example(record, scenario.task) for record in part]
         if instructions:
             examples += goal_examples(scenario, everyday(part), seed * 2 + index, PER_GOAL)
         random.Random(f"order|{seed}|{index}").shuffle(examples)

@@ -26,8 +26,10 @@ from hbtp.datasets.records import Record
 from hbtp.datasets.shipped import DATASET_SCENARIO
 from hbtp.domains import Scenario
 from hbtp.errors import InputError
+from hbtp.llm.backends.adapters import PROMPT_FORMAT, SPELLINGS
 from hbtp.llm.prompt import taught_prompt, taught_reply
 from hbtp.logic.goals import parse_goal
+from hbtp.logic.task import GroundTask
 from hbtp.planning.generate import LEVELS, Draw, Sampling, generate_records
 
 _T = TypeVar("_T")
@@ -103,9 +105,12 @@ def check_disjoint(examples: Iterable[Example], held: frozenset[GoalKey], name: 
         raise LeakError(f"{len(leaked)} training goal(s) belong to an evaluation set of {name!r}: {shown}")
 
 
-def hints_example(record: Record) -> Example:
-    """A labelled goal as the prompt a taught model is asked and the reply it learns."""
-    return Example(ExampleKind.HINTS, record.goal, taught_prompt(record.goal), taught_reply(record))
+def hints_example(record: Record, task: GroundTask) -> Example:
+    """A labelled goal of ``task`` as the prompt a taught model is asked and the reply it learns
+    (the plan in the spelling of the prompt format taught now)."""
+    plan = (task.action(name).signature for name in record.optimal_actions)
+    reply = taught_reply(plan, SPELLINGS[PROMPT_FORMAT])
+    return Example(ExampleKind.HINTS, record.goal, taught_prompt(record.goal), reply)
 
 
 def held_goals(scenario: Scenario) -> frozenset[GoalKey]:

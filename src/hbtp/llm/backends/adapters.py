@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any, BinaryIO
 
 from hbtp.errors import InputError
+from hbtp.llm.spelling import Spelling
 
 log = logging.getLogger(__name__)
 
@@ -36,9 +37,12 @@ log = logging.getLogger(__name__)
 KEY_BASE = "hbtp.base_sha256"
 KEY_WORLD = "hbtp.world"
 KEY_FORMAT = "hbtp.prompt_format"
-#: The prompt format adapters are trained on (:func:`hbtp.llm.prompt.taught_prompt`); an adapter of
-#: another format would be asked questions it was never taught.
-PROMPT_FORMAT = 2
+#: The prompt formats an adapter may be trained on (:func:`hbtp.llm.prompt.taught_prompt`), each with
+#: the spelling of its plans' actions: 2 ``Walk_milk``, 3 ``Walk milk`` (:mod:`hbtp.llm.spelling`).
+#: An adapter of another format would be asked questions it was never taught.
+SPELLINGS: dict[int, Spelling] = {2: Spelling.UNDERSCORED, 3: Spelling.SPACED}
+#: The format ``hbtp train`` teaches now.
+PROMPT_FORMAT = 3
 #: A shipped adapter ``<name>.gguf`` may have a companion ``<name>.instructions.gguf`` that reads
 #: instructions (taught with more instruction examples); the first one answers the hints.
 INSTRUCTIONS_SUFFIX = ".instructions.gguf"
@@ -183,9 +187,19 @@ def unfit(path: Path, *, world: str | None, base_sha256: str | None) -> str | No
         return "it was made for another base model"
     if world and fields.get(KEY_WORLD) not in (None, world):
         return "it was made for another world (other PDDL files)"
-    if fields.get(KEY_FORMAT, PROMPT_FORMAT) != PROMPT_FORMAT:
-        return f"it was trained on prompt format {fields.get(KEY_FORMAT)}, not {PROMPT_FORMAT}"
+    if fields.get(KEY_FORMAT, PROMPT_FORMAT) not in SPELLINGS:
+        known = " or ".join(map(str, SPELLINGS))
+        return f"it was trained on prompt format {fields.get(KEY_FORMAT)}, not {known}"
     return None
+
+
+def spelling_of(path: Path) -> Spelling:
+    """How the adapter ``path`` (one :func:`unfit` accepts) spells the actions of its plans."""
+    try:
+        written = read_metadata(path).get(KEY_FORMAT, PROMPT_FORMAT)
+    except (OSError, ValueError, struct.error):
+        written = PROMPT_FORMAT
+    return SPELLINGS.get(written, SPELLINGS[PROMPT_FORMAT])
 
 
 def _candidate(choice: AdapterChoice, scenario: str, world: str | None) -> Path | None:
@@ -244,6 +258,7 @@ __all__ = [
     "KEY_FORMAT",
     "KEY_WORLD",
     "PROMPT_FORMAT",
+    "SPELLINGS",
     "AdapterChoice",
     "AdapterMode",
     "cached_adapter",
@@ -252,6 +267,7 @@ __all__ = [
     "read_metadata",
     "shipped_adapter",
     "shipped_for_world",
+    "spelling_of",
     "unfit",
     "world_key",
 ]

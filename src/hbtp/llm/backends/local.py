@@ -32,6 +32,7 @@ import secrets
 import tempfile
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 from types import ModuleType, TracebackType
 from typing import Any
@@ -39,6 +40,8 @@ from typing import Any
 from hbtp.deadline import Deadline, expired
 from hbtp.errors import BackendError, BackendTimeLimit
 from hbtp.llm.backend import PromptStyle, Reply, Request
+from hbtp.llm.backends.adapters import spelling_of
+from hbtp.llm.spelling import Spelling, read_plan
 
 log = logging.getLogger(__name__)
 
@@ -67,6 +70,11 @@ def model_cache_dir() -> Path:
 #: replies; on a slower day of the same VM 20.8 against 12.5); reading a 789-token prompt takes 363
 #: tokens/s with two, 208 with one.
 DECODE_THREADS = 1
+#: Threads that read the prompts of a model with an adapter: the question alone (10-150 tokens),
+#: which one thread reads faster than two (measured on 2 idle cores: 13 tokens in 59 ms against
+#: 102, a prompt already cached in 31 ms against 55; two threads only pay from hundreds of tokens,
+#: the few-shot prompts of the base model, which feedback rounds alone then send).
+TAUGHT_PROMPT_THREADS = 1
 
 
 def resolve_threads(threads: int | None = None) -> int:
@@ -421,7 +429,7 @@ class LocalBackend:
             params = make_params(
                 xllamacpp,
                 path,
-                threads=self.threads,
+                threads=self.threads if self.adapter is None else min(self.threads, TAUGHT_PROMPT_THREADS),
                 context=self.context,
                 seed=self.seed,
                 api_key=secrets.token_urlsafe(24),  # the always-on listener serves no one else
@@ -471,6 +479,11 @@ class LocalBackend:
         return self.adapter is not None
 
     @property
+    def spelling(self) -> Spelling:
+        """How the adapter spells the actions of its plans (the prompt format it was taught)."""
+        return Spelling.UNDERSCORED if self.adapter is None else spelling_of(self.adapter)
+
+    @property
     def loaded(self) -> bool:
         """Whether the model is in memory."""
         return self._server is not None
@@ -513,6 +526,8 @@ class LocalBackend:
         started = time.perf_counter()
         result = self._answer(server, body, deadline)
         reply = reply_from_result(result, time.perf_counter() - started, model=str(self.model_path))
+        if request.spelling is not Spelling.UNDERSCORED and request.taught and not request.instruction:
+            reply = replace(reply, text=read_plan(reply.text))
         self._learn_speed(reply)
         reply.meta["constrained"] = "grammar" in body and self.constrain
         if loaded_here and self.load_seconds is not None:

@@ -14,18 +14,20 @@ from pathlib import Path
 from hbtp.errors import BackendError, InputError
 from hbtp.files import InputKind, open_output, read_text
 from hbtp.llm.backend import Backend, PromptStyle, Reply, Request
+from hbtp.llm.spelling import Spelling
 
 
 def _read(path: Path) -> dict[str, str]:
     return _read_lines(path)[0]
 
 
-def _read_lines(path: Path) -> tuple[dict[str, str], bool]:
-    """The replies of a record file by key, and whether they were a taught model's (a line says so)."""
+def _read_lines(path: Path) -> tuple[dict[str, str], bool, Spelling]:
+    """The replies of a record file by key, whether they were a taught model's (a line says so), and
+    how it spelled its plans' actions."""
     table: dict[str, str] = {}
-    taught = False
+    taught, spelling = False, Spelling.UNDERSCORED
     if not path.exists():
-        return table, taught
+        return table, taught, spelling
     try:
         text = read_text(path, InputKind.RECORD)
     except InputError as error:
@@ -37,9 +39,11 @@ def _read_lines(path: Path) -> tuple[dict[str, str], bool]:
             entry = json.loads(line)
             table[str(entry["key"])] = str(entry["reply"])
             taught = taught or entry.get("taught") is True
+            if entry.get("spelling") == Spelling.SPACED.name.lower():
+                spelling = Spelling.SPACED
         except (json.JSONDecodeError, KeyError, TypeError, AttributeError):
             raise BackendError(f'{path}:{number}: not a replay line (expected {{"key": ..., "reply": ...}})') from None
-    return table, taught
+    return table, taught, spelling
 
 
 class ReplayBackend:
@@ -52,8 +56,8 @@ class ReplayBackend:
         if not self.path.exists():
             raise BackendError(f"replay file {self.path} does not exist (record one with --record)")
         #: ``taught``: the file recorded a model taught the world, so the loop asks the taught
-        #: model's questions again (their keys are the recorded ones).
-        self.table, self.taught = _read_lines(self.path)
+        #: model's questions again (their keys are the recorded ones), in its ``spelling``.
+        self.table, self.taught, self.spelling = _read_lines(self.path)
 
     def complete(self, request: Request) -> Reply:
         started = time.perf_counter()
@@ -88,6 +92,12 @@ class RecordingBackend:
         """Whether the inner backend is a model taught the world (it is asked as such, recorded or not)."""
         return bool(getattr(self.inner, "taught", False))
 
+    @property
+    def spelling(self) -> Spelling:
+        """How the inner backend's taught model spells its plans' actions."""
+        spelling: Spelling = getattr(self.inner, "spelling", Spelling.UNDERSCORED)
+        return spelling
+
     def complete(self, request: Request) -> Reply:
         key = request.key()
         if key in self.table:
@@ -96,6 +106,8 @@ class RecordingBackend:
         line: dict[str, object] = {"key": key, "goal": request.goal, "round": request.round, "reply": reply.text}
         if request.taught:
             line["taught"] = True
+            if request.spelling is Spelling.SPACED:
+                line["spelling"] = Spelling.SPACED.name.lower()
         self._append(json.dumps(line) + "\n")
         self.table[key] = reply.text
         return reply
