@@ -80,7 +80,7 @@ class _Simulation:
     def __init__(self, task: GroundTask, goal: Goal, deadline: Deadline | None) -> None:
         self.task, self.goal, self.deadline = task, goal, deadline
         self.state: State = task.initial_state
-        self.plan: list[str] = []
+        self.plan: list[GroundAction] = []
         self.gaps = 0
 
     @property
@@ -111,7 +111,7 @@ class _Simulation:
 
     def apply(self, action: GroundAction) -> None:
         self.state = action.progress(self.state)
-        self.plan.append(action.signature.underscored)
+        self.plan.append(action)
 
     def fill(self, action: GroundAction) -> bool:
         """Make ``action`` apply: a plan to its missing preconditions, applied; when that plan undoes
@@ -171,8 +171,7 @@ def checked_answer(
         allowed = simulation.applicable()
         if not allowed:
             break
-        spelled = request.spelling.plan(simulation.task.action(name).signature for name in simulation.plan)
-        so_far = spelled + "," if simulation.plan else ""
+        so_far = request.spelling.plan(a.signature for a in simulation.plan) + "," if simulation.plan else ""
         step = replace(
             request,
             completion_prompt=request.completion_prompt + so_far,
@@ -185,7 +184,8 @@ def checked_answer(
             ),
             attempt=len(calls),
         )
-    return CheckedAnswer(tuple(simulation.plan), simulation.reached, tuple(calls))
+    names = tuple(action.signature.underscored for action in simulation.plan)
+    return CheckedAnswer(names, simulation.reached, tuple(calls))
 
 
 __all__ = ["GAP_EXPANSIONS", "MAX_ACTIONS", "MAX_GAPS", "MAX_STEPS", "CheckedAnswer", "checked_answer"]

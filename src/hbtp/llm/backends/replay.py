@@ -39,8 +39,8 @@ def _read_lines(path: Path) -> tuple[dict[str, str], bool, Spelling]:
             entry = json.loads(line)
             table[str(entry["key"])] = str(entry["reply"])
             taught = taught or entry.get("taught") is True
-            if entry.get("spelling") == Spelling.SPACED.name.lower():
-                spelling = Spelling.SPACED
+            if "spelling" in entry:
+                spelling = Spelling[str(entry["spelling"]).upper()]
         except (json.JSONDecodeError, KeyError, TypeError, AttributeError):
             raise BackendError(f'{path}:{number}: not a replay line (expected {{"key": ..., "reply": ...}})') from None
     return table, taught, spelling
@@ -106,8 +106,8 @@ class RecordingBackend:
         line: dict[str, object] = {"key": key, "goal": request.goal, "round": request.round, "reply": reply.text}
         if request.taught:
             line["taught"] = True
-            if request.spelling is Spelling.SPACED:
-                line["spelling"] = Spelling.SPACED.name.lower()
+            if request.spelling is not Spelling.UNDERSCORED:
+                line["spelling"] = request.spelling.name.lower()
         self._append(json.dumps(line) + "\n")
         self.table[key] = reply.text
         return reply
