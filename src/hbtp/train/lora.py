@@ -20,6 +20,7 @@ import math
 import os
 import random
 import time
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -163,14 +164,13 @@ class _Run:
 
     def save(self, path: Path, key: str) -> None:
         import torch
-        from peft import get_peft_model_state_dict
 
         state = {
             "key": key,
             "step": self.step,
             "losses": self.losses,
             "seconds": self.seconds,
-            "adapter": get_peft_model_state_dict(self.model),
+            "adapter": _adapter_state(self.model),
             "optimizer": self.optimizer.state_dict(),
             "schedule": self.schedule.state_dict(),
         }
@@ -187,7 +187,10 @@ def _new_run(model: Any, settings: TrainSettings, total: int) -> _Run:
     config = LoraConfig(
         r=settings.rank, lora_alpha=settings.alpha, lora_dropout=0.0, bias="none", target_modules=list(TARGETS)
     )
-    adapted = get_peft_model(model, config)
+    with warnings.catch_warnings():
+        # peft asks transformers 5 a question under its deprecated name: a warning for us, not the user
+        warnings.filterwarnings("ignore", message=".*is_gradient_checkpointing.*", category=FutureWarning)
+        adapted = get_peft_model(model, config)
     adapted.train()
     trainable = [p for p in adapted.parameters() if p.requires_grad]
     optimizer = torch.optim.AdamW(trainable, lr=settings.learning_rate, weight_decay=0.0)
@@ -273,7 +276,9 @@ def _step(run: _Run, rows: Sequence[tuple[list[int], int]], pad: int) -> None:
 def _adapter_state(model: Any) -> dict[str, Any]:
     from peft import get_peft_model_state_dict
 
-    state: dict[str, Any] = get_peft_model_state_dict(model)
+    # No embedding layer is adapted: saying so spares peft looking for the base model's config
+    # (on the Hugging Face hub when not on disk) and its warning when there is none.
+    state: dict[str, Any] = get_peft_model_state_dict(model, save_embedding_layers=False)
     return state
 
 
