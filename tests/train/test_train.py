@@ -381,11 +381,11 @@ def test_llama_cpp_with_the_written_adapter_agrees_with_the_torch_model(tmp_path
     log-probabilities the torch model with the LoRA gives them (the quantized base model costs a
     little), and far from what the torch model without the LoRA gives them."""
     import torch
-    from peft import LoraConfig, get_peft_model, set_peft_model_state_dict
+    from peft import set_peft_model_state_dict
 
     from hbtp.cli import main
     from hbtp.llm.backends.local import default_model_path
-    from hbtp.train.lora import TARGETS, TrainSettings, load_model
+    from hbtp.train.lora import TrainSettings, load_model, with_lora
 
     out, work = tmp_path / "rw.gguf", tmp_path / "work"
     argv = ["train", "-s", "robowaiter", "-n", "12", "--held-out", "0.2", "--epochs", "4", "--batch", "4",
@@ -395,10 +395,8 @@ def test_llama_cpp_with_the_written_adapter_agrees_with_the_torch_model(tmp_path
     prompt = next(e["prompt"] for e in held if e["kind"] == "hints")
     reply = _llama_reply(out, prompt, 8)
 
-    settings = TrainSettings()
     tokenizer, model = load_model(default_model_path(), 2)
-    config = LoraConfig(r=settings.rank, lora_alpha=settings.alpha, lora_dropout=0.0, target_modules=list(TARGETS))
-    adapted = get_peft_model(model, config)
+    adapted = with_lora(model, TrainSettings())
     set_peft_model_state_dict(adapted, torch.load(work / "checkpoint.pt", weights_only=False)["adapter"])
     adapted.eval()
     ids = tokenizer(prompt).input_ids + [token for token, _ in reply]

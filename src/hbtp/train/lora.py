@@ -179,18 +179,24 @@ class _Run:
         os.replace(staged, path)
 
 
-def _new_run(model: Any, settings: TrainSettings, total: int) -> _Run:
-    import torch
+def with_lora(model: Any, settings: TrainSettings) -> Any:
+    """``model`` with a fresh LoRA of ``settings``' rank on :data:`TARGETS` (peft's model)."""
     from peft import LoraConfig, get_peft_model
 
-    torch.manual_seed(settings.seed)
     config = LoraConfig(
         r=settings.rank, lora_alpha=settings.alpha, lora_dropout=0.0, bias="none", target_modules=list(TARGETS)
     )
     with warnings.catch_warnings():
         # peft asks transformers 5 a question under its deprecated name: a warning for us, not the user
         warnings.filterwarnings("ignore", message=".*is_gradient_checkpointing.*", category=FutureWarning)
-        adapted = get_peft_model(model, config)
+        return get_peft_model(model, config)
+
+
+def _new_run(model: Any, settings: TrainSettings, total: int) -> _Run:
+    import torch
+
+    torch.manual_seed(settings.seed)
+    adapted = with_lora(model, settings)
     adapted.train()
     trainable = [p for p in adapted.parameters() if p.requires_grad]
     optimizer = torch.optim.AdamW(trainable, lr=settings.learning_rate, weight_decay=0.0)
@@ -282,4 +288,14 @@ def _adapter_state(model: Any) -> dict[str, Any]:
     return state
 
 
-__all__ = ["TARGETS", "TrainReport", "TrainSettings", "TrainingStopped", "encode", "load_model", "reply_loss", "train"]
+__all__ = [
+    "TARGETS",
+    "TrainReport",
+    "TrainSettings",
+    "TrainingStopped",
+    "encode",
+    "load_model",
+    "reply_loss",
+    "train",
+    "with_lora",
+]
