@@ -73,6 +73,33 @@ judging_options = option_group(
 )
 
 
+@dataclass(frozen=True)
+class Labels:
+    """What the examples teach beside goals -> plans (``--instructions``), and whether the plans are
+    abridged (``--abridge``)."""
+
+    instructions: bool = True
+    abridge: bool = False
+
+
+#: ``--instructions/--no-instructions`` and ``--abridge``.
+label_options = option_group(
+    "labels",
+    Labels,
+    click.option(
+        "--instructions/--no-instructions",
+        default=True,
+        show_default=True,
+        help="Teach instructions -> goals too (goals said in words by the verbaliser), beside goals -> hints.",
+    ),
+    click.option(
+        "--abridge",
+        is_flag=True,
+        help="Teach plans without the steps the check of a reply puts back (shorter replies, faster answers).",
+    ),
+)
+
+
 @click.command("train")
 @scenario_options
 @click.option(
@@ -104,12 +131,7 @@ judging_options = option_group(
     type=click.FloatRange(0, min_open=True),
     help="Seconds of training at most; the same command then goes on from the checkpoint.",
 )
-@click.option(
-    "--instructions/--no-instructions",
-    default=True,
-    show_default=True,
-    help="Teach instructions -> goals too (goals said in words by the verbaliser), beside goals -> hints.",
-)
+@label_options
 @judging_options
 @click.option("--json", "as_json", is_flag=True, help="Print the outcome as JSON.")
 def train_command(
@@ -120,7 +142,7 @@ def train_command(
     out_file: str | None,
     work: str | None,
     time_limit: float | None,
-    instructions: bool,
+    labels: Labels,
     judging: Judging,
     as_json: bool,
 ) -> int:
@@ -136,7 +158,8 @@ def train_command(
     where: dict[str, object] = {"scenario": source.scenario} if source.scenario else {"pddl": list(source.pddl or ())}
     request = TrainRequest(
         loaded, where, count, held_out, settings, Path(out_file) if out_file else None,
-        Path(work) if work else None, time_limit, judging.evaluate, instructions, _command_line(), judging.baseline,
+        Path(work) if work else None, time_limit, judging.evaluate, labels.instructions, _command_line(),
+        judging.baseline, labels.abridge,
     )  # fmt: skip
     outcome = run_training(request, cache_folder().parent / "train", None if as_json else _progress)
     if as_json:

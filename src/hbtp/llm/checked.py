@@ -74,8 +74,9 @@ def _names_of(text: str) -> tuple[str, ...]:
     return parse_reply("Optimal Actions:" + text).hints.path
 
 
-class _Simulation:
-    """The plan so far and the state it leads to."""
+class Simulation:
+    """The plan so far and the state it leads to (a taught reply being checked, or a label being
+    abridged: :mod:`hbtp.train.abridge`)."""
 
     def __init__(self, task: GroundTask, goal: Goal, deadline: Deadline | None) -> None:
         self.task, self.goal, self.deadline = task, goal, deadline
@@ -86,6 +87,12 @@ class _Simulation:
     @property
     def reached(self) -> bool:
         return self.goal.holds(self.state)
+
+    def fork(self) -> Simulation:
+        """A copy that goes on alone (the plan so far shared, not its future)."""
+        other = Simulation(self.task, self.goal, self.deadline)
+        other.state, other.plan, other.gaps = self.state, list(self.plan), self.gaps
+        return other
 
     def applicable(self) -> list[Atom]:
         return [a.signature for a in self.task.actions if a.applicable(self.state)]
@@ -155,7 +162,7 @@ def checked_answer(
     steps (see the module docstring), by ``deadline`` (no call and no gap search starts after it);
     ``complete`` is the backend's call (it raises :class:`hbtp.errors.BackendError`, which ends the
     answer: the caller sees it)."""
-    simulation = _Simulation(task, goal, deadline)
+    simulation = Simulation(task, goal, deadline)
     calls: list[tuple[Request, Reply]] = []
     step = request  # the first question as it is: the model's own first action (a gap may precede it)
     while not simulation.reached and len(calls) < MAX_STEPS and len(simulation.plan) < MAX_ACTIONS:
@@ -188,4 +195,4 @@ def checked_answer(
     return CheckedAnswer(names, simulation.reached, tuple(calls))
 
 
-__all__ = ["GAP_EXPANSIONS", "MAX_ACTIONS", "MAX_GAPS", "MAX_STEPS", "CheckedAnswer", "checked_answer"]
+__all__ = ["GAP_EXPANSIONS", "MAX_ACTIONS", "MAX_GAPS", "MAX_STEPS", "CheckedAnswer", "Simulation", "checked_answer"]

@@ -256,6 +256,8 @@ class _Loop:
             grounded, resolved = self.goal_in(world.scenario)
             checking = (grounded.task, resolved)
         self.asker = _Asker(self.names, backend, options.grammar_retries, self.progress, checking)
+        #: What a taught model's plans leave to the check (:mod:`hbtp.train.abridge`).
+        self.filled: tuple[str, ...] = tuple(getattr(backend, "filled_predicates", ()))
         self.rounds: list[RoundRecord] = []
         self.llm_seconds = self.planning_seconds = 0.0
         #: The latest round's p̂ and the action predicates and objects of every round so far (the space only grows).
@@ -293,7 +295,7 @@ class _Loop:
             # asking ends here and the loop goes to the fallback.
             self.rounds.append(RoundRecord.of(number, exchange, tuple(self.asker.blacklist)))
             return None
-        self.hints = self.hints.grown_by(exchange.hints, self.names)
+        self.hints = self.hints.grown_by(self.unchecked(exchange.hints), self.names)
         if expired(self.deadline):
             log.info("the time limit ran out before round %d could plan", number)
             return None
@@ -324,6 +326,14 @@ class _Loop:
         self.rounds.append(RoundRecord.of(number, exchange, tuple(self.asker.blacklist), len(space), result))
         self.last = result
         return result
+
+    def unchecked(self, hints: Hints) -> Hints:
+        """A taught reply's hints as they prune: where the world is not grounded, its plan is not
+        checked (no gap is filled), so the predicates of the actions the adapter leaves to the check
+        join the reply's (its objects already name theirs: :mod:`hbtp.train.abridge`)."""
+        if self.asker.checking is not None or not self.request.taught or not self.filled:
+            return hints
+        return replace(hints, predicates=tuple(dict.fromkeys((*hints.predicates, *self.filled))))
 
     def goal_in(self, scenario: Scenario) -> tuple[Scenario, Goal]:
         """``scenario`` (with the negated twins the goal needs) and the goal in its atoms (a part of a

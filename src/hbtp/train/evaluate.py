@@ -70,9 +70,11 @@ class HeldOutScore:
         return asdict(self)
 
 
-def _answer(names: ActionNames, reply: str) -> Hints:
-    """The hints of a taught reply (the plan) with the plan's predicates and objects (Q(p̂), O(p̂))."""
-    return Hints().grown_by(parse_reply("Optimal Actions:" + reply).hints, names)
+def _answer(names: ActionNames, reply: str, filled: tuple[str, ...] = ()) -> Hints:
+    """The hints of a taught reply (the plan) with the plan's predicates and objects (Q(p̂), O(p̂)),
+    and the ``filled`` predicates (of the actions the adapter leaves to the check: the reply is read
+    unchecked, as a world that is not grounded reads it)."""
+    return Hints(predicates=filled).grown_by(parse_reply("Optimal Actions:" + reply).hints, names)
 
 
 def _same_goal(reply: str, goal: str) -> bool:
@@ -102,6 +104,7 @@ def judge(scenario: Scenario, backend: Backend, examples: Sequence[Example]) -> 
     options = PromptOptions(style=PromptStyle.COMPLETION, exclude_same_goal=True).for_backend(
         PromptStyle.COMPLETION, taught, getattr(backend, "spelling", Spelling.UNDERSCORED)
     )
+    filled = tuple(p for p in getattr(backend, "filled_predicates", ()) if p in set(names.action_predicates))
     exact = covered = solved = 0
     seconds: list[float] = []
     hints_examples = [e for e in examples if e.kind is ExampleKind.HINTS]
@@ -109,7 +112,7 @@ def judge(scenario: Scenario, backend: Backend, examples: Sequence[Example]) -> 
     for example in hints_examples:
         reply = backend.complete(build_request(names, example.goal, pool, options))
         seconds.append(reply.seconds)
-        hints, label = _answer(names, reply.text), _answer(names, read_plan(example.reply))
+        hints, label = _answer(names, reply.text, filled), _answer(names, read_plan(example.reply), filled)
         exact += hints.path == label.path
         covered += set(label.predicates) <= set(hints.predicates) and set(label.objects) <= set(hints.objects)
         result = plan(

@@ -27,6 +27,8 @@ class ExampleSet:
     held_out: tuple[Example, ...]
     #: Sampled goals left out because an evaluation set holds them.
     dropped: int = 0
+    #: The action predicates of actions the training replies leave to the check (abridged labels).
+    filled: tuple[str, ...] = ()
 
 
 def make_examples(
@@ -37,13 +39,15 @@ def make_examples(
     held_out: float = 0.1,
     max_expansions: int = 20_000,
     instructions: bool = True,
+    abridge: bool = False,
 ) -> ExampleSet:
     """The examples of ``scenario`` (see the module docstring), checked disjoint from its evaluation
     sets; :class:`InputError` when the world is too small to sample from.
 
     Labelled goals are held back whole: a held-back goal is in no training example of either kind.
     With ``instructions``, each goal of everyday activity (:func:`~hbtp.train.examples.everyday`) also
-    gives :data:`~hbtp.train.goal_examples.PER_GOAL` instruction examples (:mod:`hbtp.train.goal_examples`)."""
+    gives :data:`~hbtp.train.goal_examples.PER_GOAL` instruction examples (:mod:`hbtp.train.goal_examples`).
+    With ``abridge``, a reply leaves out the actions the check puts back (:mod:`hbtp.train.abridge`)."""
     records, dropped = sample_records(scenario, count, seed, max_expansions)
     if len(records) < 2:
         raise InputError(
@@ -51,14 +55,18 @@ def make_examples(
             "teach a model (it needs actions that change the state from s0)"
         )
     parts = []
+    filled: set[str] = set()
     for index, part in enumerate(split(records, held_out, seed)):
-        examples = [hints_example(record, scenario.task) for record in part]
+        labelled = [hints_example(record, scenario.task, abridge=abridge) for record in part]
+        examples = [example for example, _ in labelled]
+        if index == 0:
+            filled.update(p for _, left_out in labelled for p in left_out)
         if instructions:
             examples += goal_examples(scenario, everyday(part), seed * 2 + index, PER_GOAL)
         random.Random(f"order|{seed}|{index}").shuffle(examples)
         parts.append(tuple(examples))
     check_disjoint((e for part in parts for e in part), held_goals(scenario), scenario.name)
-    return ExampleSet(parts[0], parts[1], dropped)
+    return ExampleSet(parts[0], parts[1], dropped, tuple(sorted(filled)))
 
 
 __all__ = ["EXAMPLES_FORMAT", "ExampleSet", "make_examples"]

@@ -31,6 +31,7 @@ from hbtp.llm.prompt import taught_prompt, taught_reply
 from hbtp.logic.goals import parse_goal
 from hbtp.logic.task import GroundTask
 from hbtp.planning.generate import LEVELS, Draw, Sampling, generate_records
+from hbtp.train.abridge import abridged
 
 _T = TypeVar("_T")
 
@@ -105,12 +106,17 @@ def check_disjoint(examples: Iterable[Example], held: frozenset[GoalKey], name: 
         raise LeakError(f"{len(leaked)} training goal(s) belong to an evaluation set of {name!r}: {shown}")
 
 
-def hints_example(record: Record, task: GroundTask) -> Example:
+def hints_example(record: Record, task: GroundTask, *, abridge: bool = False) -> tuple[Example, frozenset[str]]:
     """A labelled goal of ``task`` as the prompt a taught model is asked and the reply it learns
-    (the plan in the spelling of the prompt format taught now)."""
-    plan = (task.action(name).signature for name in record.optimal_actions)
-    reply = taught_reply(plan, SPELLINGS[PROMPT_FORMAT])
-    return Example(ExampleKind.HINTS, record.goal, taught_prompt(record.goal), reply)
+    (the plan in the spelling of the prompt format taught now; with ``abridge``, without the actions
+    the check puts back: :func:`hbtp.train.abridge.abridged`), and the action predicates of the
+    actions left out."""
+    plan = [task.action(name) for name in record.optimal_actions]
+    said = abridged(task, task.resolve_goal(record.goal), plan) if abridge else tuple(plan)
+    kept = {action.index for action in said}
+    left_out = frozenset(action.predicate for action in plan if action.index not in kept)
+    reply = taught_reply((action.signature for action in said), SPELLINGS[PROMPT_FORMAT])
+    return Example(ExampleKind.HINTS, record.goal, taught_prompt(record.goal), reply), left_out
 
 
 def held_goals(scenario: Scenario) -> frozenset[GoalKey]:

@@ -24,7 +24,7 @@ from hbtp.deadline import Deadline
 from hbtp.domains import Scenario
 from hbtp.errors import InputError
 from hbtp.files import InputKind, read_text, write_atomically
-from hbtp.llm.backends.adapters import KEY_BASE, KEY_WORLD, PROMPT_FORMAT, world_key
+from hbtp.llm.backends.adapters import KEY_BASE, KEY_FILLED, KEY_WORLD, PROMPT_FORMAT, world_key
 from hbtp.llm.backends.local import default_model_sha256, resolve_model_path
 from hbtp.train.adapter_file import write_adapter
 from hbtp.train.evaluate import HeldOutScore, evaluate_in_child
@@ -60,6 +60,8 @@ class TrainRequest:
     #: Judge the base model too (as ``--llm local`` asks it without an adapter: demonstrations from
     #: the world's pool) on the same held-back examples: the before of the adapter's after.
     baseline: bool = False
+    #: Teach plans without the actions the check puts back (:mod:`hbtp.train.abridge`).
+    abridge: bool = False
 
 
 @dataclass(frozen=True)
@@ -83,6 +85,8 @@ class TrainOutcome:
             "settings": asdict(self.request.settings),
             "requested_goals": self.request.count,
             "train_examples_by_kind": dict(sorted(kinds.items())),
+            "abridged": self.request.abridge,
+            "filled_predicates": list(self.examples.filled),
             "adapter": str(self.adapter),
             "bytes": self.size,
             "train_examples": len(self.examples.train),
@@ -123,6 +127,8 @@ def _available_memory_mb() -> float | None:
 def _examples(request: TrainRequest, work: Path) -> ExampleSet:
     """The request's examples, read back from ``work`` when the same request made them."""
     asked = [request.source, request.count, request.held_out, request.settings.seed, request.instructions]
+    if request.abridge:  # (a key of its own; the keys of full labels stay those of earlier runs)
+        asked.append("abridged")
     key = hashlib.sha256(json.dumps([*asked, PROMPT_FORMAT, EXAMPLES_FORMAT], sort_keys=True).encode()).hexdigest()
     stored = work / "examples.json"
     if stored.is_file():
@@ -132,6 +138,7 @@ def _examples(request: TrainRequest, work: Path) -> ExampleSet:
                 tuple(Example.from_dict(e) for e in data["train"]),
                 tuple(Example.from_dict(e) for e in data["held_out"]),
                 int(data["dropped"]),
+                tuple(data.get("filled", ())),
             )
     examples = make_examples(
         request.scenario,
@@ -139,12 +146,14 @@ def _examples(request: TrainRequest, work: Path) -> ExampleSet:
         seed=request.settings.seed,
         held_out=request.held_out,
         instructions=request.instructions,
+        abridge=request.abridge,
     )
     document = {
         "key": key,
         "train": [e.to_dict() for e in examples.train],
         "held_out": [e.to_dict() for e in examples.held_out],
         "dropped": examples.dropped,
+        "filled": list(examples.filled),
     }
     write_atomically(stored, json.dumps(document, sort_keys=True))
     return examples
@@ -177,6 +186,8 @@ def run_training(
         "hbtp.train_examples": len(examples.train),
         "hbtp.steps": report.steps,
     }
+    if examples.filled:
+        facts[KEY_FILLED] = ",".join(examples.filled)
     size = write_adapter(state, request.settings.alpha, base, out, facts)
     score = evaluate_in_child(request.source, out, examples.held_out, work) if request.evaluate else None
     base_score = evaluate_in_child(request.source, None, examples.held_out, work) if request.baseline else None

@@ -37,6 +37,9 @@ log = logging.getLogger(__name__)
 KEY_BASE = "hbtp.base_sha256"
 KEY_WORLD = "hbtp.world"
 KEY_FORMAT = "hbtp.prompt_format"
+#: The action predicates of actions the adapter's plans leave out for the check to put back
+#: (:mod:`hbtp.train.abridge`), comma-separated: a reply read as hints, unchecked, names them too.
+KEY_FILLED = "hbtp.filled_predicates"
 #: The prompt formats an adapter may be trained on (:func:`hbtp.llm.prompt.taught_prompt`), each with
 #: the spelling of its plans' actions: 2 ``Walk_milk``, 3 ``Walk milk`` (:mod:`hbtp.llm.spelling`).
 #: An adapter of another format would be asked questions it was never taught.
@@ -202,6 +205,15 @@ def spelling_of(path: Path) -> Spelling:
     return SPELLINGS.get(written, SPELLINGS[PROMPT_FORMAT])
 
 
+def filled_of(path: Path) -> tuple[str, ...]:
+    """The action predicates the adapter ``path`` leaves to the check of its plans (:data:`KEY_FILLED`)."""
+    try:
+        written = read_metadata(path).get(KEY_FILLED, "")
+    except (OSError, ValueError, struct.error):
+        return ()
+    return tuple(name for name in str(written).split(",") if name)
+
+
 def _candidate(choice: AdapterChoice, scenario: str, world: str | None) -> Path | None:
     """The file ``choice`` names, or the world's own; ``None`` when there is none."""
     if choice.mode is AdapterMode.NONE:
@@ -255,6 +267,7 @@ def choose_adapter(choice: AdapterChoice, *, scenario: str, world: str | None, b
 __all__ = [
     "INSTRUCTIONS_SUFFIX",
     "KEY_BASE",
+    "KEY_FILLED",
     "KEY_FORMAT",
     "KEY_WORLD",
     "PROMPT_FORMAT",
@@ -263,6 +276,7 @@ __all__ = [
     "AdapterMode",
     "cached_adapter",
     "choose_adapter",
+    "filled_of",
     "instruction_adapter",
     "read_metadata",
     "shipped_adapter",

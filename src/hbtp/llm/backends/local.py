@@ -40,7 +40,7 @@ from typing import Any
 from hbtp.deadline import Deadline, expired
 from hbtp.errors import BackendError, BackendTimeLimit
 from hbtp.llm.backend import PromptStyle, Reply, Request
-from hbtp.llm.backends.adapters import spelling_of
+from hbtp.llm.backends.adapters import filled_of, spelling_of
 from hbtp.llm.spelling import Spelling, read_plan
 
 log = logging.getLogger(__name__)
@@ -482,6 +482,12 @@ class LocalBackend:
     def spelling(self) -> Spelling:
         """How the adapter spells the actions of its plans (the prompt format it was taught)."""
         return Spelling.UNDERSCORED if self.adapter is None else spelling_of(self.adapter)
+
+    @property
+    def filled_predicates(self) -> tuple[str, ...]:
+        """The action predicates the adapter's plans leave out for the check to put back (none
+        without an adapter): a reply read unchecked names them too (:mod:`hbtp.train.abridge`)."""
+        return () if self.adapter is None else filled_of(self.adapter)
 
     @property
     def loaded(self) -> bool:

@@ -98,6 +98,11 @@ class RecordingBackend:
         spelling: Spelling = getattr(self.inner, "spelling", Spelling.UNDERSCORED)
         return spelling
 
+    @property
+    def filled_predicates(self) -> tuple[str, ...]:
+        """The action predicates the inner backend's taught plans leave to the check."""
+        return tuple(getattr(self.inner, "filled_predicates", ()))
+
     def complete(self, request: Request) -> Reply:
         key = request.key()
         if key in self.table:
