@@ -146,6 +146,7 @@ class _Asker:
             calls.append((step, reply))
             return reply
 
+        started = time.perf_counter()
         try:
             answer = checked_answer(complete, request, task, goal, deadline)
         except BackendError as failure:
@@ -164,6 +165,7 @@ class _Asker:
             answer.seconds,
             "",
             records,
+            max(0.0, time.perf_counter() - started - answer.seconds),
         )
 
     def ask_plainly(self, request: Request, deadline: Deadline | None) -> Exchange:
@@ -290,6 +292,7 @@ class _Loop:
         exchange = self.asker.ask(self.request, self.deadline)
         self.request = exchange.request
         self.llm_seconds += exchange.seconds
+        self.planning_seconds += exchange.check_seconds
         if not exchange.replies:
             # Nothing new was said: the space is the last round's (already searched), so the
             # asking ends here and the loop goes to the fallback.

@@ -136,6 +136,8 @@ class Exchange:
     seconds: float
     error: str = ""
     calls: tuple[dict[str, Any], ...] = ()  # one :func:`call_record` per backend call
+    #: Seconds spent checking a taught plan beyond the model's calls (its gap searches: planning).
+    check_seconds: float = 0.0
 
     @property
     def hints(self) -> Hints:
