@@ -85,9 +85,24 @@ def searches_frozen() -> Iterator[SearchMemory]:
         memory.release()
 
 
+@contextlib.contextmanager
+def searches_collected() -> Iterator[None]:
+    """Within the block, searches leave their objects to the collector as usual, even inside
+    :func:`searches_frozen`: for a loop of thousands of small searches (labelling training
+    examples), whose frozen leftovers would otherwise pile up until the command ends."""
+    memory = _SEARCH_MEMORY.get()
+    if memory is not None:
+        memory.release()
+    token = _SEARCH_MEMORY.set(None)
+    try:
+        yield
+    finally:
+        _SEARCH_MEMORY.reset(token)
+
+
 def search_memory() -> SearchMemory | None:
     """The :class:`SearchMemory` of the enclosing :func:`searches_frozen`, if any."""
     return _SEARCH_MEMORY.get()
 
 
-__all__ = ["SearchMemory", "collector_paused", "search_memory", "searches_frozen"]
+__all__ = ["SearchMemory", "collector_paused", "search_memory", "searches_collected", "searches_frozen"]

@@ -10,6 +10,7 @@ from __future__ import annotations
 import random
 from dataclasses import dataclass
 
+from hbtp.collector import searches_collected
 from hbtp.domains import Scenario
 from hbtp.errors import InputError
 from hbtp.train.examples import Example, check_disjoint, everyday, held_goals, hints_example, sample_records, split
@@ -47,7 +48,17 @@ def make_examples(
     Labelled goals are held back whole: a held-back goal is in no training example of either kind.
     With ``instructions``, each goal of everyday activity (:func:`~hbtp.train.examples.everyday`) also
     gives :data:`~hbtp.train.goal_examples.PER_GOAL` instruction examples (:mod:`hbtp.train.goal_examples`).
-    With ``abridge``, a reply leaves out the actions the check puts back (:mod:`hbtp.train.abridge`)."""
+    With ``abridge``, a reply leaves out the actions the check puts back (:mod:`hbtp.train.abridge`).
+
+    Thousands of small searches label them: their objects go to the collector as they finish
+    (:func:`hbtp.collector.searches_collected`), not frozen as a command's searches are."""
+    with searches_collected():
+        return _make_examples(scenario, count, seed, held_out, max_expansions, instructions, abridge)
+
+
+def _make_examples(
+    scenario: Scenario, count: int, seed: int, held_out: float, max_expansions: int, instructions: bool, abridge: bool
+) -> ExampleSet:
     records, dropped = sample_records(scenario, count, seed, max_expansions)
     if len(records) < 2:
         raise InputError(
