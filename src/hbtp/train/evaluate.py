@@ -104,7 +104,8 @@ def judge(scenario: Scenario, backend: Backend, examples: Sequence[Example]) -> 
     options = PromptOptions(style=PromptStyle.COMPLETION, exclude_same_goal=True).for_backend(
         PromptStyle.COMPLETION, taught, getattr(backend, "spelling", Spelling.UNDERSCORED)
     )
-    filled = tuple(p for p in getattr(backend, "filled_predicates", ()) if p in set(names.action_predicates))
+    known = set(names.action_predicates)
+    filled = tuple(p for p in getattr(backend, "filled_predicates", ()) if p in known)
     exact = covered = solved = 0
     seconds: list[float] = []
     hints_examples = [e for e in examples if e.kind is ExampleKind.HINTS]
