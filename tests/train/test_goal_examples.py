@@ -17,6 +17,7 @@ from hbtp.planning import plan
 from hbtp.planning.generate import LEVELS, Sampling, generate_records
 from hbtp.train.examples import ExampleKind, check_disjoint, everyday, goal_key, held_goals, sample_records
 from hbtp.train.goal_examples import (
+    _Alike,
     about_world,
     goal_examples,
     instruction_goal,
@@ -150,3 +151,50 @@ def test_instructions_are_built_on_everyday_goals_only(robowaiter: Scenario) -> 
     assert 0 < len(walks) < len(records)
     assert all(record.id.startswith("walk-") for record in walks)
     assert all(record.id.startswith("reachable-") for record in records if record not in walks)
+
+
+def test_a_choice_offers_alike_literals_as_alternatives(robowaiter: Scenario) -> None:
+    """ "a yogurt or a milk drink on table 3": one literal of the goal unmet at the start and one or
+    two alike it but for one argument, each an alternative of its own."""
+    task = robowaiter.task
+    words = words_for(robowaiter)
+    alike = _Alike(robowaiter, words)
+    drawn = generate_records(task, LEVELS["any"], 40, Sampling(seed=3), robowaiter.mutexes)
+    rng = random.Random(4)
+    offered = [(record, goal) for record in drawn if (goal := alike.choice(record.goal, rng)) is not None]
+    assert len(offered) >= 10
+    for record, goal in offered:
+        terms = parse_goal(goal)
+        assert 2 <= len(terms) <= 3, goal
+        assert all(len(term) == 1 for term in terms), goal
+        literals = [term[0] for term in terms]
+        assert literals[0].underscored in unmet_literals(robowaiter, record.goal), (record.goal, goal)
+        assert len(set(literals)) == len(literals)
+        assert len({literal.predicate for literal in literals}) == 1
+        differing = [i for i in range(len(literals[0].args)) if len({lit.args[i] for lit in literals}) > 1]
+        assert len(differing) == 1, goal
+        assert all(task.atom_id(literal) not in task.initial_state for literal in literals), goal
+
+
+def test_a_guard_forbids_what_the_plan_leaves_false(virtualhome: Scenario, records: list) -> None:
+    """ "... but don't leave the tv on": an atom false at the start and after the plan, negated; the
+    same plan reaches the whole goal."""
+    task = virtualhome.task
+    alike = _Alike(virtualhome, words_for(virtualhome))
+    rng = random.Random(6)
+    guarded = 0
+    for record in records:
+        goal = alike.guard(record, rng)
+        if goal is None:
+            continue
+        guarded += 1
+        literals = parse_goal(goal)[0]
+        negated = [literal for literal in literals if literal.negated]
+        assert len(negated) == 1, goal
+        positive = Atom(negated[0].predicate, negated[0].args)
+        assert task.atom_id(positive) not in task.initial_state
+        final, done = apply_actions(task, [task.action(name) for name in record.optimal_actions])
+        assert done == len(record.optimal_actions)
+        assert task.atom_id(positive) not in final
+        assert all(task.atom_id(lit) in final for lit in literals if not lit.negated)
+    assert guarded >= len(records) // 2

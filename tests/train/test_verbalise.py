@@ -16,7 +16,7 @@ from hbtp.errors import InputError
 from hbtp.logic.atoms import parse_atom
 from hbtp.logic.goals import parse_goal
 from hbtp.planning.generate import Sampling, generate_records
-from hbtp.train.verbalise import groups, instruction_examples, verbalise
+from hbtp.train.verbalise import alternatives, groups, instruction_examples, verbalise
 
 GOALS = {
     "virtualhome": [
@@ -265,4 +265,23 @@ def test_alike_literals_are_often_said_once_as_a_list(virtualhome: Scenario) -> 
     for text in lists:
         assert set(listed.search(text).groups()) <= {*pear, *apple, *bananas}, text
     for text in said:
+        assert not _named(text, goal, words), text
+
+
+def test_alternatives_alike_are_often_said_once_with_or(robowaiter: Scenario) -> None:
+    """ "bring the yogurt or the milk drink to table 3": alternatives alike but for one argument are
+    said as one clause with a list joined by "or", every object named; others are not listed."""
+    words = words_for(robowaiter)
+    assert alternatives(parse_goal("On_Yogurt_Table3 | On_MilkDrink_Table3"), words) == 0
+    assert alternatives(parse_goal("On_Coffee_Table1 | On_Coffee_Table2 | On_Coffee_Table3"), words) == 1
+    assert alternatives(parse_goal("On_Yogurt_Table3 | On_MilkDrink_Table2"), words) is None
+    assert alternatives(parse_goal("On_Yogurt_Table3 & Active_AC | On_MilkDrink_Table3"), words) is None
+    goal = "On_Yogurt_Table3 | On_MilkDrink_Table3"
+    said = verbalise(goal, words, random.Random(2), 20)
+    yogurt, drink = words.noun("Yogurt").names, words.noun("MilkDrink").names
+    listed = [text for text in said if any(f"{a} or {b}" in text or f"{b} or {a}" in text
+                                           for a in yogurt for b in drink)]  # fmt: skip
+    assert len(listed) >= 8, said
+    for text in said:
+        assert re.search(r"\bor\b", text), text
         assert not _named(text, goal, words), text

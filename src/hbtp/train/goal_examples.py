@@ -17,8 +17,14 @@ is solvable and none holds at the start:
 * *kept*: a labelled goal and a literal that holds at the start and that its optimal plan leaves
   true (people ask for what is so already, "and leave the light off", beside what is not);
 * *or*: two labelled goals as alternatives (``A | B``);
+* *choice*: one literal of a labelled goal that does not hold at the start and one or two alike it
+  but for one argument, as alternatives (``On_Yogurt_Table3 | On_MilkDrink_Table3``): people offer a
+  choice among things of one kind, "a yogurt or a milk drink", and the verbaliser says it as one list;
 * *not*: a labelled goal with the negation of an atom its optimal plan makes false
-  (``A & ~p``: the plan reaches it), or that negation alone.
+  (``A & ~p``: the plan reaches it), or that negation alone;
+* *guard*: a labelled goal with the negation of an atom that holds neither at the start nor after
+  its optimal plan, but that some plan could make true ("turn on the AC, but don't set the
+  temperature low"): people forbid a side effect, and the same plan keeps it false.
 
 A *group* or *both* goal is kept only when the labelling search solves it within
 :data:`LABEL_EXPANSIONS` (else the labelled goal is used). Each goal is said as an instruction by
@@ -50,13 +56,15 @@ from hbtp.train.verbalise import verbalise
 
 #: The shapes of the instruction goals, with their shares (refusals come on top: :data:`REFUSALS`).
 SHAPES: tuple[tuple[str, float], ...] = (
-    ("one", 0.2),
-    ("and", 0.15),
-    ("group", 0.15),
-    ("both", 0.1),
+    ("one", 0.18),
+    ("and", 0.12),
+    ("group", 0.12),
+    ("both", 0.08),
     ("kept", 0.1),
-    ("or", 0.15),
-    ("not", 0.15),
+    ("or", 0.1),
+    ("choice", 0.1),
+    ("not", 0.1),
+    ("guard", 0.1),
 )
 #: Refusals per instruction example.
 REFUSALS = 0.12
@@ -81,14 +89,21 @@ def kept_atoms(scenario: Scenario, record: Record) -> list[Atom]:
     return _start_atoms(scenario, record, kept=True)
 
 
-def _start_atoms(scenario: Scenario, record: Record, *, kept: bool) -> list[Atom]:
+def _final_state(scenario: Scenario, record: Record) -> frozenset[int] | None:
+    """The state ``record``'s optimal plan ends in; ``None`` when it does not run from the start."""
     task = scenario.task
     try:
         actions = [task.action(parse_atom(name)) for name in record.optimal_actions]
     except InputError:
-        return []
+        return None
     final, done = apply_actions(task, actions)
-    if done < len(actions):
+    return frozenset(final) if done == len(actions) else None
+
+
+def _start_atoms(scenario: Scenario, record: Record, *, kept: bool) -> list[Atom]:
+    task = scenario.task
+    final = _final_state(scenario, record)
+    if final is None:
         return []
     chosen = task.initial_state & final if kept else task.initial_state - final
     return sorted(
@@ -136,6 +151,46 @@ class _Alike:
             if not atom.negated and parse_atom(atom.underscored) == atom:
                 self.by_predicate.setdefault(atom.predicate, []).append(atom)
 
+    def alike(self, literal: Atom, rng: random.Random) -> list[Atom]:
+        """The atoms alike ``literal`` but for one argument (drawn, not the robot itself), shuffled."""
+        positions = [i for i, arg in enumerate(literal.args) if not self.words.noun(arg).agent]
+        if not positions:
+            return []
+        at = rng.choice(positions)
+        same = literal.args[:at] + literal.args[at + 1 :]
+        found = [a for a in self.by_predicate.get(literal.predicate, []) if a.args[:at] + a.args[at + 1 :] == same]
+        rng.shuffle(found)
+        return [atom for atom in found if atom != literal]
+
+    def choice(self, goal: str, rng: random.Random) -> str | None:
+        """One literal of ``goal`` that does not hold at the start and one or two alike it but for one
+        argument, as alternatives; ``None`` when there are none."""
+        unmet = unmet_literals(self.scenario, goal)
+        if not unmet:
+            return None
+        literal = parse_atom(rng.choice(unmet))
+        others = self.alike(literal, rng)[: rng.randint(1, 2)]
+        return " | ".join(atom.underscored for atom in [literal, *others]) if others else None
+
+    def guard(self, record: Record, rng: random.Random) -> str | None:
+        """``record``'s goal and the negation of an atom about the world that holds neither at the
+        start nor after its plan (one about an object of the goal half of the time); ``None`` when
+        there is none."""
+        final = _final_state(self.scenario, record)
+        if final is None or len(parse_goal(record.goal)) != 1:
+            return None
+        task = self.scenario.task
+        candidates = [
+            atom
+            for atoms in self.by_predicate.values()
+            for atom in atoms
+            if task.atom_id(atom) not in final and not _about_robot(atom, self.words)
+        ]
+        named = {arg for atom in parse_goal(record.goal)[0] for arg in atom.args}
+        near = [atom for atom in candidates if named & set(atom.args)]
+        pool = near if near and rng.random() < 0.5 else candidates
+        return f"{record.goal} & ~{rng.choice(pool).underscored}" if pool else None
+
     def extend(self, goal: str, rng: random.Random) -> str | None:
         """``goal`` (conjunctive) with one or two literals alike one of its own but for one argument
         (not the robot itself), none that the mutexes rule out beside it; ``None`` when there is none."""
@@ -145,13 +200,7 @@ class _Alike:
         literal = rng.choice([atom for atom in terms[0] if not atom.negated] or [None])
         if literal is None:
             return None
-        positions = [i for i, arg in enumerate(literal.args) if not self.words.noun(arg).agent]
-        if not positions:
-            return None
-        at = rng.choice(positions)
-        same = literal.args[:at] + literal.args[at + 1 :]
-        alike = [a for a in self.by_predicate.get(literal.predicate, []) if a.args[:at] + a.args[at + 1 :] == same]
-        rng.shuffle(alike)
+        alike = self.alike(literal, rng)
         task = self.scenario.task
         ids = {task.atom_id(atom) for atom in terms[0]}
         added: list[str] = []
@@ -211,6 +260,14 @@ def instruction_goal(
         other = rng.choice(others)
         if other.goal != record.goal:
             return f"{record.goal} | {other.goal}"
+    if shape == "choice":
+        offered = alike.choice(record.goal, rng)
+        if offered is not None:
+            return offered
+    if shape == "guard":
+        guarded = alike.guard(record, rng)
+        if guarded is not None:
+            return guarded
     if shape == "not":
         atoms = _about_world(negatable(scenario, record), alike.words)
         if atoms:

@@ -235,13 +235,19 @@ class _Speaker:
         pool = own if own and (not glue or self.rng.random() < 0.7) else glue
         return self.fill(self.rng.choice(pool), atom.args), kind
 
-    def group(self, atoms: Sequence[Atom], position: int) -> Atom:
+    def group(self, atoms: Sequence[Atom], position: int, alternatives: bool = False) -> Atom:
         """``atoms`` (alike but for the argument at ``position``) as one atom whose argument there is
-        a made-up object said as their list: "the pear, the bananas and the apple"."""
+        a made-up object said as their list: "the pear, the bananas and the apple"; for
+        ``alternatives``, "the yogurt or the milk drink" (the verb agreeing with the last)."""
         key = f"\x00{len(self.words.objects)}"  # no object has such a name
         said = [self.mention(atom.args[position], subject=False, again=True) for atom in atoms]
-        listed = f"{', '.join(said[:-1])} and {said[-1]}"
-        self.words = replace(self.words, objects={**self.words.objects, key: Noun((listed,), plural=True)})
+        if alternatives:
+            either = "either " if self.rng.random() < 0.3 else ""
+            listed = f"{either}{', '.join(said[:-1])} or {said[-1]}"
+            plural = self.words.noun(atoms[-1].args[position]).plural
+        else:
+            listed, plural = f"{', '.join(said[:-1])} and {said[-1]}", True
+        self.words = replace(self.words, objects={**self.words.objects, key: Noun((listed,), plural=plural)})
         first = atoms[0]
         return Atom(first.predicate, (*first.args[:position], key, *first.args[position + 1 :]), first.negated)
 
@@ -268,6 +274,9 @@ class _Speaker:
         """The whole instruction for the goal ``terms`` (its disjuncts) in ``style``."""
         order = list(terms)
         self.rng.shuffle(order)
+        listed = alternatives(order, self.words)
+        if listed is not None and self.rng.random() < GROUPED:  # "put the yogurt or the milk drink on table 3"
+            order = [(self.group([term[0] for term in order], listed, alternatives=True),)]
         if style == "want":  # "I want the milk in the fridge and the fridge closed": no pronouns
             self.want = self.rng.choice((SMALL, INF))
             self.pronouns = False
@@ -316,6 +325,16 @@ def groups(atoms: Sequence[Atom], words: Words) -> list[tuple[list[Atom], int]]:
     return found
 
 
+def alternatives(terms: Sequence[Term], words: Words) -> int | None:
+    """The position of the one argument in which alternatives of one literal each differ (``On_Yogurt_Table3 |
+    On_MilkDrink_Table3``: 0), said once with a list, "the yogurt or the milk drink"; ``None`` when
+    they are not alike so (:func:`groups`)."""
+    if len(terms) < 2 or any(len(term) != 1 for term in terms):
+        return None
+    found = groups([term[0] for term in terms], words)
+    return found[0][1] if len(found) == 1 and len(found[0][0]) == len(terms) else None
+
+
 def _key(text: str) -> str:
     """What two instructions must differ in to count as different: not case, spaces or the end mark."""
     return " ".join(text.lower().rstrip(".?!").split())
@@ -352,6 +371,7 @@ __all__ = [
     "ATTEMPTS",
     "GROUPED",
     "InstructionExample",
+    "alternatives",
     "groups",
     "instruction_examples",
     "verbalise",
