@@ -8,6 +8,7 @@ import json
 import re
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -267,8 +268,9 @@ def test_recorded_instruction_exchanges_replay(capsys: pytest.CaptureFixture[str
 
 def test_bench_instructions_with_the_oracle(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     code, out, _ = _run(
-        capsys, "bench", "instructions", "--llm", "oracle", "-s", "robowaiter", "--limit", "3", "-o", str(tmp_path)
-    )
+        capsys, "bench", "instructions", "--llm", "oracle", "-s", "robowaiter", "--limit", "3", "--no-lacking",
+        "-o", str(tmp_path),
+    )  # fmt: skip
     assert code == 0
     rows = [json.loads(line) for line in (tmp_path / "results.jsonl").read_text(encoding="utf-8").splitlines()]
     assert len(rows) == 6
@@ -291,7 +293,7 @@ def test_bench_records_a_backend_failure_and_goes_on(tmp_path: Path) -> None:
         def complete(self, request: Request) -> Reply:
             raise BackendError("server down")
 
-    bench = InstructionsBench(("robowaiter",), "refusing", limit=2, phrasings=1)
+    bench = InstructionsBench(("robowaiter",), "refusing", limit=2, phrasings=1, lacking=False)
     summary = run_instructions(bench, lambda scenario: Refusing([]), tmp_path)
     rows = [json.loads(line) for line in (tmp_path / "results.jsonl").read_text(encoding="utf-8").splitlines()]
     assert [r["message"] for r in rows] == ["server down", "server down"]
@@ -530,3 +532,68 @@ def test_a_goal_standing_in_for_a_thing_the_world_lacks_is_refused(
         virtualhome, instruction, Taught([answer]), options=InstructOptions(refuse_lacking=False)
     )
     assert off.goal == answer
+
+
+class Refuser(Taught):
+    """A taught model that refuses what the instruction names and the world lacks, else answers
+    the dataset's goal."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        super().__init__([])
+        self.words, self.oracle = words_for(scenario), InstructionOracle(scenario)
+
+    def complete(self, request: Request) -> Reply:
+        self.requests.append(request)
+        lacking = self.words.lacking_in(request.instruction)
+        return Reply(f"Unknown: {lacking[0]}") if lacking else self.oracle.complete(request)
+
+
+def test_bench_instructions_asks_about_things_the_world_lacks(tmp_path: Path) -> None:
+    """One instruction per record about a thing the world lacks: refused for it is exact; a goal
+    or a failure is not; they are a kind of their own, not in ``all``; the same every run."""
+    robowaiter = load_scenario("robowaiter")
+    bench = InstructionsBench(("robowaiter",), "refuser", limit=4, phrasings=1)
+    summary = run_instructions(bench, lambda scenario: Refuser(scenario), tmp_path / "a")
+    rows = [json.loads(line) for line in (tmp_path / "a" / "results.jsonl").read_text(encoding="utf-8").splitlines()]
+    lacking = [r for r in rows if r["kind"] == "lacking"]
+    assert len(lacking) == 4
+    words = words_for(robowaiter)
+    for row in lacking:
+        thing = row["intended"].removeprefix("Unknown: ")
+        assert words.lacking_in(row["instruction"]), row
+        assert thing.split()[-1] in row["instruction"].lower()
+        assert row["exact"], row
+        assert row["reached"], row
+        assert row["produced"] is None, row
+    assert summary["scenarios"]["robowaiter"]["all"]["instructions"] == 4
+    assert summary["scenarios"]["robowaiter"]["lacking"]["exact_pct"] == 100.0
+
+    class Failing(Scripted):
+        def complete(self, request: Request) -> Reply:
+            raise BackendError("server down")
+
+    run_instructions(bench, lambda scenario: Failing([]), tmp_path / "b")
+    failed = [json.loads(line) for line in (tmp_path / "b" / "results.jsonl").read_text(encoding="utf-8").splitlines()]
+    assert [r["instruction"] for r in failed if r["kind"] == "lacking"] == [r["instruction"] for r in lacking]
+    # An instruction about nothing the world has is refused before the model is asked.
+    for row in failed:
+        before = row["message"].startswith("the instruction names ")
+        assert row["message"] == "server down" or before, row
+        assert row["exact"] == (row["kind"] == "lacking" and before), row
+    assert sum(row["message"] == "server down" for row in failed if row["kind"] == "lacking") >= 2
+    none = run_instructions(replace(bench, lacking=False), lambda scenario: Refuser(scenario), tmp_path / "c")
+    assert "lacking" not in none["scenarios"]["robowaiter"]
+
+
+def test_an_instruction_about_only_what_the_world_lacks_is_refused_for_it_before_asking() -> None:
+    robowaiter = load_scenario("robowaiter")
+    backend = Scripted(["On_Coffee_Table1"])
+    choice = goal_from_instruction(
+        robowaiter, "The electric fan should be prepared.", backend, instruction_pool(robowaiter)
+    )
+    assert choice.goal is None
+    assert choice.lacking == "electric fan"
+    assert choice.message == "the instruction names electric fan, which 'robowaiter' does not have"
+    assert not backend.requests
+    with pytest.raises(InputError, match="names no object of 'robowaiter'"):
+        goal_from_instruction(robowaiter, "Juggle three pineapples.", backend, instruction_pool(robowaiter))

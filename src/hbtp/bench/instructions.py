@@ -16,11 +16,18 @@ the record's phrasings is shown). A row records:
 - ``rounds`` and ``llm_s``: answers asked for and the model's time;
 - ``reached``: the full tree OBTEA plans for the produced goal (landmark heuristic), run from s0,
   ends in a state where the *intended* goal holds (the end-to-end success).
+
+With ``lacking`` (the default), each record also gives one instruction about a thing the world
+lacks, kind ``lacking``: its goal with one object swapped for a thing of the words file the world
+does not have, said by the verbaliser (:func:`hbtp.train.verbalise.lacking_instruction`, seeded by
+the record's id), "put the sofa in the fridge". It is exact (and reached) only when it is refused
+for that thing; its intended answer is written ``Unknown: sofa``. These rows are not in ``all``.
 """
 
 from __future__ import annotations
 
 import logging
+import random
 import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
@@ -34,6 +41,7 @@ from hbtp.bt.disturb import exactly_one_groups
 from hbtp.bt.simulate import simulate
 from hbtp.datasets.instructions import InstructionRecord, load_instructions
 from hbtp.domains import Scenario
+from hbtp.domains.words import words_for
 from hbtp.errors import HbtpError
 from hbtp.files import write_atomically
 from hbtp.llm.backend import Backend
@@ -43,6 +51,7 @@ from hbtp.logic.task import GroundTask
 from hbtp.pipeline.instruct import InstructOptions, goal_from_instruction, instruction_pool
 from hbtp.planning import Limits, plan
 from hbtp.planning.heuristic_names import HeuristicName
+from hbtp.train.verbalise import lacking_instruction
 
 log = logging.getLogger(__name__)
 
@@ -59,6 +68,7 @@ class InstructionsBench:
     phrasings: int = 2
     rounds: int = 3
     plan_time_limit: float = 30.0
+    lacking: bool = True
 
 
 def kind_of(record: InstructionRecord) -> str:
@@ -69,6 +79,9 @@ def kind_of(record: InstructionRecord) -> str:
     if any(atom.negated for term in terms for atom in term):
         return "negative"
     return "disjunctive" if len(terms) > 1 else "written"
+
+
+LACKING = "lacking"
 
 
 def normal_form(scenario: Scenario, terms: Sequence[Sequence[Atom]], mutexes: bool) -> Normal:
@@ -183,6 +196,43 @@ def _answered(
     )
 
 
+def lacking_row(
+    scenario: Scenario, record: InstructionRecord, backend: Backend, bench: InstructionsBench
+) -> InstructionRow | None:
+    """The instruction about a thing the world lacks built on ``record`` (see the module's
+    documentation) and whether it was refused for that thing; ``None`` when none can be said."""
+    words = words_for(scenario)
+    rng = random.Random(f"lacking|{record.id}")
+    said = lacking_instruction(record.goal, scenario.task.constants, words.foreign(), words, rng)
+    if said is None:
+        return None
+    started = time.perf_counter()
+    row = InstructionRow(scenario=scenario.name, id=f"{record.id}/{LACKING}", phrasing=0, kind=LACKING,
+                         instruction=said.instruction, intended=f"Unknown: {said.thing}", produced=None,
+                         well_formed=False, rejected=True, exact=False, equivalent=False, reached=False, rounds=0,
+                         llm_s=0.0, message="", seconds=0.0)  # fmt: skip
+    try:
+        choice = goal_from_instruction(
+            scenario, row.instruction, backend, instruction_pool(scenario), InstructOptions(rounds=bench.rounds)
+        )
+    except HbtpError as error:
+        return replace(row, message=str(error), seconds=round(time.perf_counter() - started, 6))
+    refused = choice.goal is None and choice.lacking is not None and said.thing.split()[-1] in choice.lacking
+    return replace(
+        row,
+        produced=choice.goal,
+        well_formed=choice.goal is not None,
+        rejected=choice.goal is None,
+        exact=refused,
+        equivalent=refused,
+        reached=refused,
+        rounds=len(choice.attempts),
+        llm_s=round(choice.llm_seconds, 6),
+        message=choice.message,
+        seconds=round(time.perf_counter() - started, 6),
+    )
+
+
 def _same(scenario: Scenario, left: Sequence[Sequence[Atom]], right: Sequence[Sequence[Atom]], mutexes: bool) -> bool:
     return normal_form(scenario, left, mutexes) == normal_form(scenario, right, mutexes)
 
@@ -219,6 +269,14 @@ def run_instructions(bench: InstructionsBench, make: Any, out: Path) -> dict[str
                         continue
                     backend = backend or make(scenario)
                     results.append(run_row(scenario, record, phrasing, backend, bench))
+                key = (name, f"{record.id}/{LACKING}", 0)
+                if bench.lacking and key not in results:
+                    backend = backend or make(scenario)
+                    row = lacking_row(scenario, record, backend, bench)
+                    if row is not None:
+                        results.append(row)
+                if bench.lacking and key in results:
+                    keys.append(key)
         finally:
             if backend is not None:
                 backend.close()
@@ -229,15 +287,17 @@ def run_instructions(bench: InstructionsBench, make: Any, out: Path) -> dict[str
     return summary
 
 
-KINDS = ("test-set", "disjunctive", "negative", "written")
+KINDS = ("test-set", "disjunctive", "negative", "written", LACKING)
 
 
 def summarise(rows: Sequence[InstructionRow]) -> dict[str, dict[str, Any]]:
-    """Per scenario and per kind: the shares of exact, equivalent, well-formed and reached rows."""
+    """Per scenario and per kind: the shares of exact, equivalent, well-formed and reached rows
+    (``all``: the dataset's instructions, not the ``lacking`` ones)."""
     table: dict[str, dict[str, Any]] = {}
     for name in dict.fromkeys(r.scenario for r in rows):
         mine = [r for r in rows if r.scenario == name]
-        table[name] = {"all": _figures(mine)}
+        asked = [r for r in mine if r.kind != LACKING]
+        table[name] = {"all": _figures(asked)} if asked else {}
         for kind in KINDS:
             chosen = [r for r in mine if r.kind == kind]
             if chosen:
@@ -281,10 +341,12 @@ def report(summary: dict[str, Any]) -> str:
 
 
 __all__ = [
+    "LACKING",
     "InstructionRow",
     "InstructionsBench",
     "holds_by_name",
     "kind_of",
+    "lacking_row",
     "normal_form",
     "run_instructions",
     "run_row",

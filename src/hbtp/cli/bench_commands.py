@@ -539,6 +539,13 @@ def pddl(
 @click.option(
     "--phrasings", type=click.IntRange(1, 10), default=2, show_default=True, help="Phrasings asked per record."
 )
+@click.option(
+    "--lacking/--no-lacking",
+    default=True,
+    show_default=True,
+    help="Also ask, per record, its goal with one object swapped for a thing the world lacks, "
+    "said in words; it must be refused (kind 'lacking', not in 'all').",
+)
 @feedback_rounds_option("Answers asked again, with the objections to the last, before giving up.")
 @backend_options
 @out_dir_option
@@ -547,13 +554,14 @@ def instructions(
     llm_spec: LlmSpec,
     limit: int | None,
     phrasings: int,
+    lacking: bool,
     feedback_rounds: int,
     backend: BackendOptions,
     out_dir: str,
 ) -> int:
     """Instructions to goals: accuracy, rounds, LLM time and end-to-end success on the instruction dataset."""
     chosen = tuple(scenarios) or scenario_names()
-    bench_config = InstructionsBench(chosen, str(llm_spec), limit, phrasings, feedback_rounds)
+    bench_config = InstructionsBench(chosen, str(llm_spec), limit, phrasings, feedback_rounds, lacking=lacking)
     summary = run_instructions(
         bench_config, lambda scenario: make_goal_backend(llm_spec, scenario, backend), Path(out_dir)
     )

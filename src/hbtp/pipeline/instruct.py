@@ -21,7 +21,8 @@ literals about objects the instruction never names, when others are about object
 literal for each object the instruction names and the goal leaves out (asked as a continuation of
 its own goal; a literal that draws an objection is dropped). An instruction that names no object
 of the domain and shares no word with a known instruction is refused before the model is asked (a
-model under a grammar always answers *some* goal).
+model under a grammar always answers *some* goal): for what it names that the world lacks, when it
+names such a thing ("bring me the guitar"), else as about nothing the domain knows.
 """
 
 from __future__ import annotations
@@ -198,7 +199,7 @@ def goal_from_instruction(
     taught = bool(getattr(backend, "taught", False))
     examples = [] if taught else similar_examples(text, pool, options.examples)
     if not taught and not _relevant(scenario, text, pool):
-        raise InputError(f"the instruction {text[:80]!r} names no object of {scenario.name!r} and is like no known one")
+        return _unrelated(scenario, text, options)
     ask = partial(goal_request, task, text, examples, constrain=options.constrain, seed=options.seed, taught=taught)
     attempts: list[GoalAttempt] = []
     rejected: list[Rejected] = []
@@ -234,6 +235,16 @@ def goal_from_instruction(
     if cover and attempts and attempts[-1].accepted:
         spent += _cover(scenario, text, backend, request, attempts, deadline, by_words=taught)
     return _refused_if_substituted(scenario, _choose(text, attempts, spent), options)
+
+
+def _unrelated(scenario: Scenario, text: str, options: InstructOptions) -> GoalChoice:
+    """The refusal of ``text``, which names no object of the world and is like no known instruction:
+    for what it names that the world lacks ("the electric fan should be on"), as a taught model
+    would refuse; raises :class:`InputError` when it names no such thing either."""
+    strangers = " and ".join(words_for(scenario).lacking_in(text)) if options.refuse_lacking else ""
+    if not strangers:
+        raise InputError(f"the instruction {text[:80]!r} names no object of {scenario.name!r} and is like no known one")
+    return GoalChoice(text, None, message=lacks(scenario, strangers), lacking=strangers)
 
 
 def _refused_if_substituted(scenario: Scenario, choice: GoalChoice, options: InstructOptions) -> GoalChoice:

@@ -37,7 +37,6 @@ sofa), answered ``Unknown: sofa`` (:func:`hbtp.llm.goal_prompt.refusal_reply`)."
 from __future__ import annotations
 
 import random
-import re
 from collections.abc import Sequence
 from dataclasses import replace
 
@@ -52,7 +51,7 @@ from hbtp.logic.goals import format_goal, parse_goal
 from hbtp.planning.generate import label_goal, relaxed_reachable
 from hbtp.planning.limits import Limits
 from hbtp.train.examples import Example, ExampleKind, goal_key, held_goals
-from hbtp.train.verbalise import verbalise
+from hbtp.train.verbalise import lacking_instruction, verbalise
 
 #: The shapes of the instruction goals, with their shares (refusals come on top: :data:`REFUSALS`).
 SHAPES: tuple[tuple[str, float], ...] = (
@@ -297,24 +296,10 @@ def refusal_example(
     scenario: Scenario, record: Record, foreign: Sequence[str], words: Words, rng: random.Random
 ) -> Example | None:
     """``record``'s goal with one object swapped for a foreign one, said in words and refused."""
-    terms = parse_goal(record.goal)
-    objects = sorted({arg for term in terms for atom in term for arg in atom.args} - set(scenario.task.constants))
-    if not objects or not foreign:
+    said = lacking_instruction(record.goal, scenario.task.constants, foreign, words, rng)
+    if said is None:
         return None
-    swapped, stranger = rng.choice(objects), rng.choice(foreign)
-
-    def swap(atom: Atom) -> Atom:
-        return Atom(atom.predicate, tuple(stranger if x == swapped else x for x in atom.args), atom.negated)
-
-    goal = format_goal([tuple(swap(atom) for atom in term) for term in terms])
-    # The stranger is said by one of its names, and the refusal repeats that name.
-    noun = words.noun(stranger)
-    name = rng.choice(noun.names)
-    said = verbalise(goal, replace(words, objects={**words.objects, stranger: replace(noun, names=(name,))}), rng, 1)
-    if not said:
-        return None
-    bare = re.sub(r"^(?:the|a|an)\s+", "", name.lower())
-    return Example(ExampleKind.GOAL, record.goal, taught_goal_prompt(said[0]), refusal_reply(bare))
+    return Example(ExampleKind.GOAL, record.goal, taught_goal_prompt(said.instruction), refusal_reply(said.thing))
 
 
 def goal_examples(scenario: Scenario, records: Sequence[Record], seed: int, per_goal: int = 1) -> list[Example]:

@@ -20,13 +20,13 @@ from __future__ import annotations
 import logging
 import random
 import re
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 from hbtp.domains.words import COPULA, SLOT, Noun, Words
 from hbtp.logic.atoms import Atom
-from hbtp.logic.goals import Term, parse_goal
+from hbtp.logic.goals import Term, format_goal, parse_goal
 
 log = logging.getLogger(__name__)
 
@@ -359,6 +359,39 @@ def verbalise(goal_text: str, words: Words, rng: random.Random, count: int) -> l
     return list(found.values())
 
 
+class Lacking(NamedTuple):
+    """An instruction about a thing the world lacks, and that thing as it is said, bare ("sofa")."""
+
+    instruction: str
+    thing: str
+
+
+def lacking_instruction(
+    goal_text: str, constants: Collection[str], foreign: Sequence[str], words: Words, rng: random.Random
+) -> Lacking | None:
+    """An instruction asking for ``goal_text`` with one of its objects (not one of ``constants``)
+    swapped for one of the ``foreign`` things (of the words file, the world lacks them): "put the
+    sofa in the fridge" where there is no sofa. ``None`` when the goal has no such object or the
+    words cannot say it. Deterministic for ``rng``'s state."""
+    terms = parse_goal(goal_text)
+    objects = sorted({arg for term in terms for atom in term for arg in atom.args} - set(constants))
+    if not objects or not foreign:
+        return None
+    swapped, stranger = rng.choice(objects), rng.choice(foreign)
+
+    def swap(atom: Atom) -> Atom:
+        return Atom(atom.predicate, tuple(stranger if x == swapped else x for x in atom.args), atom.negated)
+
+    goal = format_goal([tuple(swap(atom) for atom in term) for term in terms])
+    # The stranger is said by one of its names, and the refusal repeats that name.
+    noun = words.noun(stranger)
+    name = rng.choice(noun.names)
+    said = verbalise(goal, replace(words, objects={**words.objects, stranger: replace(noun, names=(name,))}), rng, 1)
+    if not said:
+        return None
+    return Lacking(said[0], re.sub(r"^(?:the|a|an)\s+", "", name.lower()))
+
+
 def instruction_examples(
     goals: Iterable[str], words: Words, rng: random.Random, per_goal: int = 3
 ) -> list[InstructionExample]:
@@ -371,8 +404,10 @@ __all__ = [
     "ATTEMPTS",
     "GROUPED",
     "InstructionExample",
+    "Lacking",
     "alternatives",
     "groups",
     "instruction_examples",
+    "lacking_instruction",
     "verbalise",
 ]
