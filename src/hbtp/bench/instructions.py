@@ -147,13 +147,22 @@ def run_row(
 ) -> InstructionRow:
     """One instruction: its goal, compared with the intended one, and the planned tree's outcome."""
     started = time.perf_counter()
-    asked = InstructionRow(
+    asked = _asked(scenario, record.id, phrasing, kind_of(record), record.instructions[phrasing], record.goal)
+    row = _answered(scenario, record, backend, bench, asked)
+    return replace(row, seconds=round(time.perf_counter() - started, 6))
+
+
+def _asked(
+    scenario: Scenario, row_id: str, phrasing: int, kind: str, instruction: str, intended: str
+) -> InstructionRow:
+    """The row of an instruction asked, before any answer: nothing produced, nothing right."""
+    return InstructionRow(
         scenario=scenario.name,
-        id=record.id,
+        id=row_id,
         phrasing=phrasing,
-        kind=kind_of(record),
-        instruction=record.instructions[phrasing],
-        intended=record.goal,
+        kind=kind,
+        instruction=instruction,
+        intended=intended,
         produced=None,
         well_formed=False,
         rejected=True,
@@ -165,8 +174,6 @@ def run_row(
         message="",
         seconds=0.0,
     )
-    row = _answered(scenario, record, backend, bench, asked)
-    return replace(row, seconds=round(time.perf_counter() - started, 6))
 
 
 def _answered(
@@ -207,10 +214,7 @@ def lacking_row(
     if said is None:
         return None
     started = time.perf_counter()
-    row = InstructionRow(scenario=scenario.name, id=f"{record.id}/{LACKING}", phrasing=0, kind=LACKING,
-                         instruction=said.instruction, intended=f"Unknown: {said.thing}", produced=None,
-                         well_formed=False, rejected=True, exact=False, equivalent=False, reached=False, rounds=0,
-                         llm_s=0.0, message="", seconds=0.0)  # fmt: skip
+    row = _asked(scenario, f"{record.id}/{LACKING}", 0, LACKING, said.instruction, f"Unknown: {said.thing}")
     try:
         choice = goal_from_instruction(
             scenario, row.instruction, backend, instruction_pool(scenario), InstructOptions(rounds=bench.rounds)
