@@ -4,13 +4,14 @@ shapes said in words, and refusals of instructions about what the world lacks.""
 from __future__ import annotations
 
 import random
+from dataclasses import replace
 
 import pytest
 
 from hbtp.domains import Scenario
 from hbtp.domains.words import words_for
 from hbtp.llm.goal_prompt import refusal_of, taught_goal_prompt
-from hbtp.logic.atoms import Atom
+from hbtp.logic.atoms import Atom, parse_atom
 from hbtp.logic.execution import apply_actions
 from hbtp.logic.goals import parse_goal
 from hbtp.planning import plan
@@ -19,6 +20,8 @@ from hbtp.train.examples import ExampleKind, check_disjoint, everyday, goal_key,
 from hbtp.train.goal_examples import (
     _Alike,
     about_world,
+    absent_atoms,
+    draw,
     goal_examples,
     instruction_goal,
     kept_atoms,
@@ -198,3 +201,54 @@ def test_a_guard_forbids_what_the_plan_leaves_false(virtualhome: Scenario, recor
         assert task.atom_id(positive) not in final
         assert all(task.atom_id(lit) in final for lit in literals if not lit.negated)
     assert guarded >= len(records) // 2
+
+
+def test_a_robot_implicit_in_its_predicate_is_dropped_too(robowaiter: Scenario) -> None:
+    """A café robot's ``Holding_Dessert`` and ``RobotNear_Bar`` name no robot argument, but are said
+    about "you": like the others, they are mostly dropped from a goal that asks for more."""
+    words = words_for(robowaiter)
+    records, _ = sample_records(robowaiter, 10, seed=0, max_expansions=20_000)
+    record = replace(records[0], goal="On_Dessert_Table1 & Holding_Coffee & RobotNear_Table1")
+    rng = random.Random(1)
+    kept = [parse_goal(about_world(record, words, rng).goal)[0] for _ in range(200)]
+    assert all(parse_atom("On_Dessert_Table1") in literals for literals in kept)
+    own = sum(len(literals) - 1 for literals in kept)
+    assert 20 <= own <= 100, own  # SELF_KEPT of 400
+    alone = replace(record, goal="Holding_Coffee & RobotNear_Table1")
+    assert all(len(parse_goal(about_world(alone, words, rng).goal)[0]) >= 1 for _ in range(20))
+
+
+def test_a_draw_gives_each_predicate_its_share() -> None:
+    """Where each thing is (many atoms) does not crowd out whether the light is on (one atom)."""
+    atoms = [parse_atom(f"On_Thing{i}_Table") for i in range(20)] + [parse_atom("Active_Light")]
+    rng = random.Random(0)
+    drawn = [draw(atoms, rng) for _ in range(400)]
+    light = sum(atom.predicate == "Active" for atom in drawn)
+    assert 150 <= light <= 250, light
+    assert len({atom for atom in drawn if atom.predicate == "On"}) >= 15
+
+
+def test_guards_forbid_many_kinds_of_facts_none_about_the_robot(robowaiter: Scenario) -> None:
+    words = words_for(robowaiter)
+    alike = _Alike(robowaiter, words)
+    drawn = generate_records(robowaiter.task, LEVELS["any"], 60, Sampling(seed=5), robowaiter.mutexes)
+    rng = random.Random(2)
+    guards = [
+        next(lit for lit in parse_goal(goal)[0] if lit.negated)
+        for record in drawn
+        if (goal := alike.guard(record, rng)) is not None
+    ]
+    assert len(guards) >= 30
+    assert len({lit.predicate for lit in guards}) >= 4, guards
+    assert not [lit for lit in guards if words.about_robot(lit)]
+
+
+def test_absent_atoms_are_the_negations_false_at_the_start(robowaiter: Scenario) -> None:
+    """ "don't close the curtain" is said only of an atom that does not hold at the start."""
+    task = robowaiter.task
+    held = next(atom for i in sorted(task.initial_state) if not (atom := task.atoms[i]).negated)
+    assert held.predicate in task.predicates
+    goal = f"Active_AC & ~Low_ACTemperature & ~{held.underscored}"
+    assert task.atom_id(parse_atom("Low_ACTemperature")) not in task.initial_state
+    assert absent_atoms(robowaiter, goal) == {parse_atom("Low_ACTemperature")}
+    assert absent_atoms(robowaiter, "Active_AC") == frozenset()

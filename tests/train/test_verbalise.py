@@ -285,3 +285,47 @@ def test_alternatives_alike_are_often_said_once_with_or(robowaiter: Scenario) ->
     for text in said:
         assert re.search(r"\bor\b", text), text
         assert not _named(text, goal, words), text
+
+
+def test_a_negated_literal_absent_at_the_start_may_be_said_as_a_deed_forbidden(robowaiter: Scenario) -> None:
+    """ "don't close the curtain" asks for ``~Closed_Curtain`` only where the curtain is open: the
+    verbaliser says the deed forbidden only for the atoms it is told are absent at the start."""
+    words = words_for(robowaiter)
+    goal = "Active_TubeLight & ~Closed_Curtain"
+    forbidden = re.compile(r"(don't|do not|never|not to) (close|draw|pull|shut)\b", re.IGNORECASE)
+    told = verbalise(goal, words, random.Random(5), 30, absent={parse_atom("Closed_Curtain")})
+    assert sum(bool(forbidden.search(text)) for text in told) >= 5, told
+    for text in told:
+        assert NEGATION.search(text), text
+        assert not _named(text, goal, words), text
+    untold = verbalise(goal, words, random.Random(5), 30)
+    assert not [text for text in untold if forbidden.search(text)]
+
+
+def test_a_group_of_absent_negations_is_forbidden_as_one_deed(robowaiter: Scenario) -> None:
+    words = words_for(robowaiter)
+    goal = "On_Coffee_Table1 & ~On_Dessert_Table1 & ~On_Chips_Table1"
+    absent = {parse_atom("On_Dessert_Table1"), parse_atom("On_Chips_Table1")}
+    said = verbalise(goal, words, random.Random(1), 30, absent=absent)
+    dessert, chips = words.noun("Dessert").names, words.noun("Chips").names
+    together = [
+        text
+        for text in said
+        if re.search(r"(don't|do not|never|not to) \w+ (the \w+) and (the \w+)", text)
+        and any(name in text for name in dessert)
+        and any(name in text for name in chips)
+    ]
+    assert together, said
+
+
+def test_a_fact_said_about_you_is_about_the_robot(robowaiter: Scenario, virtualhome: Scenario) -> None:
+    """The robot is an argument (``IsNear_self_sofa``) or implicit in the predicate, which is said as
+    a fact about "you" (``Holding_Coffee``: "you are holding the coffee")."""
+    cafe, home = words_for(robowaiter), words_for(virtualhome)
+    for text in ("Holding_Coffee", "Holding_Nothing", "RobotNear_Bar", "~RobotNear_Bar"):
+        assert cafe.about_robot(parse_atom(text)), text
+    for text in ("On_Coffee_Table1", "Closed_Curtain", "Active_AC", "Exists_Coffee"):
+        assert not cafe.about_robot(parse_atom(text)), text
+    assert home.about_robot(parse_atom("IsNear_self_sofa"))
+    assert home.about_robot(parse_atom("IsLeftHandEmpty_self"))
+    assert not home.about_robot(parse_atom("IsIn_milk_fridge"))

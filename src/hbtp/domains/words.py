@@ -113,6 +113,15 @@ class Words:
         """How the object ``name`` is said."""
         return self.objects.get(name) or noun_of(name, self.data)
 
+    def about_robot(self, atom: Atom) -> bool:
+        """Whether ``atom`` is a fact about the robot itself: one of its arguments is the robot (an
+        ``agent``), or it is said as a fact about "you" or "your ..." ("you are holding {0}": the robot is implicit
+        in the predicate, as in a café world's ``Holding_Coffee``)."""
+        if any(self.noun(arg).agent for arg in atom.args):
+            return True
+        subjects = (match.group(1).lower() for match in map(COPULA.match, self.phrasing(atom).state) if match)
+        return any(subject == "you" or subject.startswith("your ") for subject in subjects)
+
     def named_in(self, text: str) -> frozenset[str]:
         """The objects (the robot aside) that ``text`` calls by one of their names or synonyms: the
         name's words, articles aside, in a row ("the AC" and "the air conditioner" name ``AC``; "tables

@@ -4,8 +4,9 @@ The goals are built from the planner's labelled goals of everyday activity (the 
 walks, :data:`hbtp.planning.generate.Draw.WALK`: goals drawn from every reachable atom ask for
 intermediate facts such as where the robot stands, which people rarely ask for, and a model taught
 them adds such literals to what people said). A walk's end also makes several facts about the
-robot itself true (what its hands hold): most of them are dropped (:func:`about_world`). Every goal
-is solvable and none holds at the start:
+robot itself true (what its hands hold, where it stands): most of them are dropped
+(:func:`about_world`; :meth:`hbtp.domains.words.Words.about_robot` says which are). Every goal is
+solvable and none holds at the start:
 
 * *one*: one literal of a labelled goal that does not hold at the start (most instructions people
   give ask for one thing; labelled goals mostly have two or three literals);
@@ -24,7 +25,11 @@ is solvable and none holds at the start:
   (``A & ~p``: the plan reaches it), or that negation alone;
 * *guard*: a labelled goal with the negation of an atom that holds neither at the start nor after
   its optimal plan, but that some plan could make true ("turn on the AC, but don't set the
-  temperature low"): people forbid a side effect, and the same plan keeps it false.
+  temperature low"): people forbid a side effect, and the same plan keeps it false. Its
+  instruction may say the deed forbidden ("don't close the curtain", :func:`absent_atoms`).
+
+The atom of a *kept*, *not* or *guard* goal is drawn predicate first (:func:`draw`): every kind of
+fact gets its share, not only where each thing is.
 
 A *group* or *both* goal is kept only when the labelling search solves it within
 :data:`LABEL_EXPANSIONS` (else the labelled goal is used). Each goal is said as an instruction by
@@ -127,6 +132,14 @@ def unmet_literals(scenario: Scenario, goal: str) -> list[str]:
     return unmet
 
 
+def absent_atoms(scenario: Scenario, goal: str) -> frozenset[Atom]:
+    """The atoms of ``goal``'s negated literals that do not hold at the start: "don't close the
+    curtain" asks for ``~Closed_Curtain`` only where the curtain is open already."""
+    task = scenario.task
+    negated = {atom.positive for term in parse_goal(goal) for atom in term if atom.negated}
+    return frozenset(atom for atom in negated if task.atom_ids.get(atom) not in task.initial_state)
+
+
 def _compatible(scenario: Scenario, goal: str, atoms: Sequence[Atom]) -> list[Atom]:
     """The ``atoms`` that the world's mutexes let hold together with the conjunctive ``goal``."""
     terms = parse_goal(goal)
@@ -183,12 +196,12 @@ class _Alike:
             atom
             for atoms in self.by_predicate.values()
             for atom in atoms
-            if task.atom_id(atom) not in final and not _about_robot(atom, self.words)
+            if task.atom_id(atom) not in final and not self.words.about_robot(atom)
         ]
         named = {arg for atom in parse_goal(record.goal)[0] for arg in atom.args}
         near = [atom for atom in candidates if named & set(atom.args)]
         pool = near if near and rng.random() < 0.5 else candidates
-        return f"{record.goal} & ~{rng.choice(pool).underscored}" if pool else None
+        return f"{record.goal} & ~{draw(pool, rng).underscored}" if pool else None
 
     def extend(self, goal: str, rng: random.Random) -> str | None:
         """``goal`` (conjunctive) with one or two literals alike one of its own but for one argument
@@ -215,13 +228,18 @@ class _Alike:
 
 
 def _about_world(atoms: Sequence[Atom], words: Words) -> list[Atom]:
-    """The ``atoms`` with no argument that is the robot itself."""
-    return [atom for atom in atoms if not _about_robot(atom, words)]
+    """The ``atoms`` that are not about the robot itself (:meth:`Words.about_robot`)."""
+    return [atom for atom in atoms if not words.about_robot(atom)]
 
 
-def _about_robot(atom: Atom, words: Words) -> bool:
-    """Whether ``atom`` has the robot itself (the words' ``agent``) among its arguments."""
-    return any(words.noun(arg).agent for arg in atom.args)
+def draw(atoms: Sequence[Atom], rng: random.Random) -> Atom:
+    """One of ``atoms`` (not empty), its predicate drawn first: each predicate among them is as likely,
+    so the many atoms of one predicate (where each thing is) do not crowd out the few of another
+    (whether the light is on)."""
+    by_predicate: dict[str, list[Atom]] = {}
+    for atom in atoms:
+        by_predicate.setdefault(atom.predicate, []).append(atom)
+    return rng.choice(by_predicate[rng.choice(sorted(by_predicate))])
 
 
 def _solvable(scenario: Scenario, goal: str) -> bool:
@@ -254,7 +272,7 @@ def instruction_goal(
     if shape == "kept":
         atoms = _about_world(_compatible(scenario, record.goal, kept_atoms(scenario, record)), alike.words)
         if atoms:
-            return f"{record.goal} & {rng.choice(atoms).underscored}"
+            return f"{record.goal} & {draw(atoms, rng).underscored}"
     if shape == "or" and others:
         other = rng.choice(others)
         if other.goal != record.goal:
@@ -268,9 +286,10 @@ def instruction_goal(
         if guarded is not None:
             return guarded
     if shape == "not":
-        atoms = _about_world(negatable(scenario, record), alike.words)
+        atoms = negatable(scenario, record)
+        atoms = atoms if rng.random() < SELF_KEPT else _about_world(atoms, alike.words)
         if atoms:
-            negated = "~" + rng.choice(atoms).underscored
+            negated = "~" + draw(atoms, rng).underscored
             return negated if rng.random() < 0.3 else f"{record.goal} & {negated}"
     return record.goal
 
@@ -282,7 +301,7 @@ def about_world(record: Record, words: Words, rng: random.Random) -> Record:
     literals = record.goal.split(" & ")
     if "|" in record.goal or len(literals) == 1:
         return record
-    agent = [_about_robot(parse_atom(literal), words) for literal in literals]
+    agent = [words.about_robot(parse_atom(literal)) for literal in literals]
     sure = rng.randrange(len(literals)) if all(agent) else -1
     kept = [
         literal
@@ -319,7 +338,7 @@ def goal_examples(scenario: Scenario, records: Sequence[Record], seed: int, per_
             goal = instruction_goal(scenario, asked, others, rng, alike)
             if goal_key(goal) in held:  # a part of a labelled goal can be an evaluation goal: never taught
                 goal = record.goal
-            said = verbalise(goal, words, rng, 1)
+            said = verbalise(goal, words, rng, 1, absent=absent_atoms(scenario, goal))
             if said:
                 examples.append(Example(ExampleKind.GOAL, goal, taught_goal_prompt(said[0]), taught_goal_reply(goal)))
         if rng.random() < REFUSALS * per_goal:
@@ -338,6 +357,8 @@ __all__ = [
     "SELF_KEPT",
     "SHAPES",
     "about_world",
+    "absent_atoms",
+    "draw",
     "goal_examples",
     "instruction_goal",
     "kept_atoms",

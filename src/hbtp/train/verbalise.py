@@ -11,6 +11,8 @@ and the apple on the table" for literals alike but for one argument).
 
 A negated literal is always said as a negation ("don't leave the fridge open", "make sure the
 fridge is not open"), never as the opposite predicate: ``~IsOpen_fridge`` is not ``IsClose_fridge``.
+Where its atom does not hold at the start (the caller says which: ``absent``), it is also said as
+the deed forbidden, "don't open the fridge": not doing it keeps the fridge shut.
 A pronoun stands only for the object named last in the clause before, so every instruction names
 every object of its goal (the robot itself, the ``agent``, is "you").
 """
@@ -63,6 +65,11 @@ _NEGATIVE: Mapping[str, tuple[str, ...]] = {
 # Frames for an object subject only ("get the fridge open", not "get you near the sink").
 _POSITIVE_THIRD: Mapping[str, tuple[str, ...]] = {DO: ("get {o} {c}",)}
 _NEGATIVE_THIRD: Mapping[str, tuple[str, ...]] = {DONT: ("don't let {o} be {c}",)}
+# A deed forbidden ({x}: one of the literal's ``say`` forms), for a literal whose atom is absent.
+_FORBID: Mapping[str, tuple[str, ...]] = {
+    DONT: ("don't {x}", "do not {x}", "never {x}"),
+    DO: ("make sure not to {x}", "make sure you don't {x}", "be careful not to {x}", "take care not to {x}"),
+}
 
 _POLITE = ("could you {x}?", "can you {x}?", "would you {x}?", "will you {x}?", "please {x}", "{x}, please",
            "I'd like you to {x}", "I need you to {x}", "when you get a chance, {x}", "do me a favor and {x}",
@@ -97,13 +104,16 @@ class _Forms:
     glue: dict[str, list[str]] = field(default_factory=lambda: {kind: [] for kind in _KINDS})
 
 
-def _forms(atom: Atom, words: Words) -> _Forms:
-    """Every form of ``atom``; placeholders ``{k}`` (object case) and ``{Sk}`` (subject case)."""
+def _forms(atom: Atom, words: Words, absent: bool = False) -> _Forms:
+    """Every form of ``atom``; placeholders ``{k}`` (object case) and ``{Sk}`` (subject case). A
+    negated literal whose atom is ``absent`` at the start is also said as a deed forbidden."""
     phrasing = words.phrasing(atom)
     forms = _Forms()
     if atom.negated:
         for text in phrasing.deny:
             forms.data[DONT if re.match(r"(don't|do not|never)\b", text) else DO].append(text)
+        for kind, frames in _FORBID.items() if absent else ():
+            forms.data[kind].extend(frame.format(x=text) for frame in frames for text in phrasing.say)
     else:
         forms.data[DO].extend(phrasing.say)
     for text in phrasing.state:
@@ -166,7 +176,9 @@ def _join(parts: Sequence[str], kinds: Sequence[str], rng: random.Random, top: b
         return f"first {parts[0]}, " + (f"then {middle}, and finally {last}" if middle else f"then {last}")
     if mode == "sentences":
         return ". ".join([parts[0], *map(_capital, parts[1:])])
-    return f"{head}{',' if mode == 'oxford' and len(parts) > 2 else ''} and {last}"
+    # "turn on the AC, but don't set it low": a deed forbidden after ones asked for
+    but = kinds[-1] == DONT and DONT not in kinds[:-1] and rng.random() < 0.5
+    return f"{head}{',' if (mode == 'oxford' and len(parts) > 2) or but else ''} {'but' if but else 'and'} {last}"
 
 
 def _either(parts: Sequence[str], rng: random.Random, single: bool) -> str:
@@ -193,9 +205,10 @@ class _Speaker:
     """Writes one instruction: keeps the names chosen for its objects (one synonym each) and the
     object named last, for pronouns."""
 
-    def __init__(self, words: Words, rng: random.Random) -> None:
+    def __init__(self, words: Words, rng: random.Random, absent: Collection[Atom] = ()) -> None:
         self.words = words
         self.rng = rng
+        self.absent = set(absent)
         self.chosen: dict[str, str] = {}
         self.last: str | None = None
         self.pronouns = True
@@ -228,7 +241,7 @@ class _Speaker:
 
     def part(self, atom: Atom, kinds: Sequence[str]) -> tuple[str, str]:
         """``atom`` said as one of ``kinds`` (the data's own forms preferred), and the kind used."""
-        forms = _forms(atom, self.words)
+        forms = _forms(atom, self.words, atom.positive in self.absent)
         usable = [kind for kind in kinds if forms.data[kind] or forms.glue[kind]]
         kind = self.rng.choice(usable)
         own, glue = forms.data[kind], forms.glue[kind]
@@ -249,7 +262,10 @@ class _Speaker:
             listed, plural = f"{', '.join(said[:-1])} and {said[-1]}", True
         self.words = replace(self.words, objects={**self.words.objects, key: Noun((listed,), plural=plural)})
         first = atoms[0]
-        return Atom(first.predicate, (*first.args[:position], key, *first.args[position + 1 :]), first.negated)
+        grouped = Atom(first.predicate, (*first.args[:position], key, *first.args[position + 1 :]), first.negated)
+        if all(atom.positive in self.absent for atom in atoms):
+            self.absent.add(grouped.positive)
+        return grouped
 
     def conjunction(self, term: Term, style: str, top: bool) -> tuple[str, str]:
         """One disjunct, its literals in a random order, each said in ``style``; and its kind.
@@ -340,11 +356,13 @@ def _key(text: str) -> str:
     return " ".join(text.lower().rstrip(".?!").split())
 
 
-def verbalise(goal_text: str, words: Words, rng: random.Random, count: int) -> list[str]:
+def verbalise(goal_text: str, words: Words, rng: random.Random, count: int, absent: Collection[Atom] = ()) -> list[str]:
     """``count`` different instructions asking for the goal ``goal_text`` (hbtp's syntax: ``&``,
     ``|``, ``~`` over ``Pred_a_b`` literals), in varied styles: imperative, polite, the state wanted,
-    "I want ...", mixed. Deterministic for ``rng``'s state. Fewer come back (logged) only when the
-    goal's words cannot make ``count`` different ones within :data:`ATTEMPTS` tries each."""
+    "I want ...", mixed. A negated literal whose atom is one of ``absent`` (it does not hold at the
+    start) may be said as a deed forbidden ("don't open the fridge"). Deterministic for ``rng``'s
+    state. Fewer come back (logged) only when the goal's words cannot make ``count`` different ones
+    within :data:`ATTEMPTS` tries each."""
     terms = parse_goal(goal_text)
     styles = list(_STYLES)
     rng.shuffle(styles)
@@ -352,7 +370,7 @@ def verbalise(goal_text: str, words: Words, rng: random.Random, count: int) -> l
     for attempt in range(max(0, count) * ATTEMPTS):
         if len(found) >= count:
             break
-        text = _Speaker(words, rng).instruction(terms, styles[attempt % len(styles)])
+        text = _Speaker(words, rng, absent).instruction(terms, styles[attempt % len(styles)])
         found.setdefault(_key(text), text)
     if len(found) < count:
         log.debug("%s: only %d different instructions of %d asked", goal_text, len(found), count)
