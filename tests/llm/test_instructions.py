@@ -597,3 +597,28 @@ def test_an_instruction_about_only_what_the_world_lacks_is_refused_for_it_before
     assert not backend.requests
     with pytest.raises(InputError, match="names no object of 'robowaiter'"):
         goal_from_instruction(robowaiter, "Juggle three pineapples.", backend, instruction_pool(robowaiter))
+
+
+def test_no_row_shows_the_model_its_own_records_phrasings(tmp_path: Path) -> None:
+    """A base model's demonstrations leave the asked record out, for its own rows and for the row
+    about a thing the world lacks built on it."""
+    bench = InstructionsBench(("robowaiter",), "scripted", limit=3, phrasings=1)
+    backends: list[Scripted] = []
+
+    def backend(scenario: Scenario) -> Scripted:
+        backends.append(Scripted(["Goals: Active_AC"]))
+        return backends[-1]
+
+    run_instructions(bench, backend, tmp_path)
+    rows = [json.loads(line) for line in (tmp_path / "results.jsonl").read_text(encoding="utf-8").splitlines()]
+    records = {record.id: record for record in load_instructions("robowaiter")}
+    asked = {row["instruction"]: records[row["id"].removesuffix("/lacking")] for row in rows}
+    requests = [request for made in backends for request in made.requests]
+    assert {request.instruction for request in requests} <= set(asked)  # some are refused before asking
+    lacking = {row["instruction"] for row in rows if row["kind"] == "lacking"}
+    assert lacking & {request.instruction for request in requests}
+    for request in requests:
+        shown = request.completion_prompt + "".join(message.content for message in request.messages)
+        own = asked[request.instruction]
+        assert not [text for text in own.instructions if text in shown.replace(request.instruction, "")], own.id
+        assert "Instruction:" in shown  # demonstrations are shown at all

@@ -217,7 +217,11 @@ def lacking_row(
     row = _asked(scenario, f"{record.id}/{LACKING}", 0, LACKING, said.instruction, f"Unknown: {said.thing}")
     try:
         choice = goal_from_instruction(
-            scenario, row.instruction, backend, instruction_pool(scenario), InstructOptions(rounds=bench.rounds)
+            scenario,
+            row.instruction,
+            backend,
+            instruction_pool(scenario, frozenset({record.id})),  # the record left out, as for its own rows
+            InstructOptions(rounds=bench.rounds),
         )
     except HbtpError as error:
         return replace(row, message=str(error), seconds=round(time.perf_counter() - started, 6))
