@@ -126,17 +126,19 @@ class Words:
         """The objects (the robot aside) that ``text`` calls by one of their names or synonyms: the
         name's words, articles aside, in a row ("the AC" and "the air conditioner" name ``AC``; "tables
         1" names ``Table1``, a plural ``s`` or ``es`` aside), or spells it in up to three words ("kitchen
-        cabinet" names ``kitchencabinet``). The longest names are read first, and
+        cabinet" names ``kitchencabinet``); a numbered name goes on with a list of numbers ("tables 1
+        and 2" names ``Table2`` too). The longest names are read first, and
         words read as one name are not read again as part of another ("the AD calcium milk" names
         ``ADMilk``, not ``Milk`` too)."""
         said = spoken_words(text)
-        found = [
-            (start, len(words), name)
+        spoken = {
+            words: name
             for name, noun in self.objects.items()
             if not noun.agent
             for words in {spoken_words(spoken) for spoken in noun.names}
-            for start in _starts(words, said)
-        ]
+        }
+        found = [(start, len(words), name) for words, name in spoken.items() for start in _starts(words, said)]
+        found += _listed(said, found, spoken)
         spelled = {spelling(name): name for name, noun in self.objects.items() if not noun.agent}
         found += [
             (start, width, name) for start in range(len(said)) for width, name in spelled_at(said, start, spelled)
@@ -185,6 +187,42 @@ class Words:
         return tuple(dict.fromkeys(said for _, said in sorted(found)))
 
 
+def _listed(
+    said: tuple[str, ...], found: Sequence[tuple[int, int, str]], spoken: Mapping[tuple[str, ...], str]
+) -> list[tuple[int, int, str]]:
+    """The objects named by the numbers listed after a numbered name ("tables 1 and 2", "table one,
+    two or three"): each number (one word) with the name's other words names an object of
+    ``spoken`` (words -> object), as (where, 1, object); not a number that counts the object named
+    next ("table 1 and 2 yogurts")."""
+    listed = []
+    starts = {start for start, _, _ in found}
+    for start, width, _ in found:
+        end = start + width
+        if not _is_number(said[end - 1]):
+            continue
+        stems = {words[:-1] for words in spoken if len(words) == width and _plural_run(said[start:end], words)}
+        at = end
+        while at < len(said) and (said[at] in ("and", "or") or _is_number(said[at])):
+            named = [spoken.get((*stem, said[at])) for stem in stems]
+            if said[at] not in ("and", "or") and (not any(named) or at + 1 in starts):
+                break
+            listed += [(at, 1, name) for name in named if name is not None]
+            at += 1
+    return listed
+
+
+def _plural_run(said: Sequence[str], run: tuple[str, ...]) -> bool:
+    """Whether the words ``said`` are ``run``, each maybe in the plural (``s`` or ``es`` added)."""
+    if len(said) != len(run):
+        return False
+    return all(word in (name, name + "s", name + "es") for name, word in zip(run, said, strict=True))
+
+
+def _is_number(word: str) -> bool:
+    """Whether ``word`` is a number, in digits or words up to twenty."""
+    return word.isdigit() or word in _NUMBERS
+
+
 def _says(words: Sequence[str], run: tuple[str, ...]) -> bool:
     """Whether ``words`` are the name ``run``, its last word maybe plural (``s`` or ``es``)."""
     if tuple(words[:-1]) != run[:-1]:
@@ -225,11 +263,7 @@ def _starts(run: tuple[str, ...], words: tuple[str, ...]) -> list[int]:
     width = len(run)
     if not width:
         return []
-    return [
-        i
-        for i in range(len(words) - width + 1)
-        if all(said in (name, name + "s", name + "es") for name, said in zip(run, words[i : i + width], strict=True))
-    ]
+    return [i for i in range(len(words) - width + 1) if _plural_run(words[i : i + width], run)]
 
 
 # ------------------------------------------------------------------ the data

@@ -303,10 +303,12 @@ def false_refusal(scenario: Scenario, text: str, lacking: str) -> str | None:
 def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
     """``goal`` without the literals about objects the instruction does not name, in each conjunction
     that also has literals about objects it does name (by the world's words for them or their
-    spelling, :meth:`hbtp.domains.words.Words.named_in`). A taught model that has written
-    the literal asked for tends to go on with one more ("switch on the AC": ``Active_AC &
-    IsClean_Chairs``). A literal with no object but the robot or a placeholder is kept; a goal that
-    does not parse is returned as it is, for the checks to refuse."""
+    spelling, :meth:`hbtp.domains.words.Words.named_in`), and without the literals that repeat
+    another of their conjunction but for one object, which the instruction does not name where the
+    other's is named (:func:`_twin`). A taught model that has written the literal asked for tends
+    to go on with one more ("switch on the AC": ``Active_AC & IsClean_Chairs``; "bring the juice to
+    table 2": ``On_Juice_Table2 & On_Juice_Table1``). A literal with no object but the robot or a
+    placeholder is kept; a goal that does not parse is returned as it is, for the checks to refuse."""
     try:
         terms = parse_goal(goal)
     except InputError:
@@ -316,14 +318,31 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
     kept, dropped = [], []
     for term in terms:
         said = [literal for literal in term if not _about(words, literal) or _about(words, literal) & spoken]
+        said = [literal for literal in said if not _twin(words, literal, term, spoken)]
         if any(_about(words, literal) for literal in said) and len(said) < len(term):
             dropped += [literal.underscored for literal in term if literal not in said]
             term = tuple(said)
         kept.append(term)
     if not dropped:
         return goal
-    log.info("instruction: left out %s (the instruction names none of their objects)", ", ".join(dropped))
+    log.info("instruction: left out %s (about objects the instruction does not name)", ", ".join(dropped))
     return format_goal(kept)
+
+
+def _twin(words: Words, literal: Atom, term: Sequence[Atom], spoken: frozenset[str]) -> bool:
+    """Whether another literal of ``term`` is ``literal`` but for one argument, which ``spoken`` holds
+    there and not in ``literal`` (``On_Juice_Table1`` beside ``On_Juice_Table2``, table 2 named)."""
+    for at, arg in enumerate(literal.args):
+        if arg in spoken or arg not in _about(words, literal):
+            continue
+        kind = (literal.predicate, literal.negated, len(literal.args))
+        rest = literal.args[:at] + literal.args[at + 1 :]
+        for other in term:
+            if (other.predicate, other.negated, len(other.args)) != kind or other.args[at] not in spoken:
+                continue
+            if other.args[:at] + other.args[at + 1 :] == rest:
+                return True
+    return False
 
 
 def _about(words: Words, literal: Atom) -> set[str]:
