@@ -523,6 +523,8 @@ def test_a_taught_conjunction_that_leaves_out_a_named_object_is_continued(robowa
         ("set the dish bowl on the kitchen table for my cereal", "IsOn_dishbowl_kitchentable", None),
         ("fan the stove and put the chips on the desk", "IsOn_chips_desk", None),  # "fan": no thing
         ("put the milk in the piano", "IsIn_milk_fridge", "piano"),
+        # a twin of a named literal is kept to be judged: the chips stand in for the guitar
+        ("put the milk and the guitar in the fridge", "IsIn_milk_fridge & IsIn_chips_fridge", "guitar"),
     ],
 )
 def test_a_goal_standing_in_for_a_thing_the_world_lacks_is_refused(

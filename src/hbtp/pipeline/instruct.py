@@ -307,18 +307,22 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
     another of their conjunction but for one object, which the instruction does not name where the
     other's is named (:func:`_twin`). A taught model that has written the literal asked for tends
     to go on with one more ("switch on the AC": ``Active_AC & IsClean_Chairs``; "bring the juice to
-    table 2": ``On_Juice_Table2 & On_Juice_Table1``). A literal with no object but the robot or a
-    placeholder is kept; a goal that does not parse is returned as it is, for the checks to refuse."""
+    table 2": ``On_Juice_Table2 & On_Juice_Table1``). Where the instruction names a thing the world
+    lacks, a twin is kept: it may stand in for that thing ("put the bread and the pancake in the
+    fridge": ``IsIn_breadslice_fridge & IsIn_chips_fridge``), which :func:`substituted` refuses. A
+    literal with no object but the robot or a placeholder is kept; a goal that does not parse is
+    returned as it is, for the checks to refuse."""
     try:
         terms = parse_goal(goal)
     except InputError:
         return goal
     words = words_for(scenario)
     spoken = _spoken_objects(words, text)
+    twins = not words.lacking_in(text)
     kept, dropped = [], []
     for term in terms:
         said = [literal for literal in term if not _about(words, literal) or _about(words, literal) & spoken]
-        said = [literal for literal in said if not _twin(words, literal, term, spoken)]
+        said = [literal for literal in said if not (twins and _twin(words, literal, term, spoken))]
         if any(_about(words, literal) for literal in said) and len(said) < len(term):
             dropped += [literal.underscored for literal in term if literal not in said]
             term = tuple(said)
