@@ -260,10 +260,10 @@ def test_a_deadline_still_stops_grounding(how: str) -> None:
         only = (lambda schema, args: args[0] != "o1") if how == "only" else None
         return ground(domain, problem, deadline=deadline, only=only)
 
-    started = time.perf_counter()
+    started = time.process_time()  # the CPU spent, which other jobs on the machine do not stretch
     with pytest.raises(TimeLimitReached, match=r"^time limit of 0\.1 s reached while grounding$"):
         run()
-    assert time.perf_counter() - started < 1.0
+    assert time.process_time() - started < 1.0
 
 
 def test_a_deadline_stops_a_large_forall() -> None:
@@ -277,7 +277,7 @@ def test_a_deadline_stops_a_large_forall() -> None:
     objects = " ".join(f"o{i}" for i in range(300))
     problem = read_problem(f"(define (problem p) (:domain d) (:objects {objects}) (:init (go)))", domain)
     assert len(ground(domain, dataclasses.replace(problem, objects=problem.objects[:3])).atoms) == 9
-    started = time.perf_counter()
+    started = time.process_time()
     with pytest.raises(TimeLimitReached):
         ground(domain, problem, deadline=Deadline(0.02))
-    assert time.perf_counter() - started < 1.0
+    assert time.process_time() - started < 1.0
