@@ -115,8 +115,8 @@ class Words:
 
     def about_robot(self, atom: Atom) -> bool:
         """Whether ``atom`` is a fact about the robot itself: one of its arguments is the robot (an
-        ``agent``), or it is said as a fact about "you" or "your ..." ("you are holding {0}": the robot is implicit
-        in the predicate, as in a café world's ``Holding_Coffee``)."""
+        ``agent``), or it is said as a fact about "you" or "your ..." ("you are holding {0}": the
+        robot is implicit in the predicate, as in a café world's ``Holding_Coffee``)."""
         if any(self.noun(arg).agent for arg in atom.args):
             return True
         subjects = (match.group(1).lower() for match in map(COPULA.match, self.phrasing(atom).state) if match)
