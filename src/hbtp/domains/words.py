@@ -60,12 +60,14 @@ class Phrasing:
 @dataclass(frozen=True)
 class ObjectEntry:
     """An object's entry in the data: bare names (no article), whether they are plural, whether they
-    take "the", and whether the object is the robot itself (said "you", never checked as named)."""
+    take "the", whether the object is the robot itself (said "you", never checked as named), and
+    whether it is a part of other things ("the door" of a fridge: never a thing a world lacks)."""
 
     names: tuple[str, ...]
     plural: bool = False
     article: bool = True
     agent: bool = False
+    part: bool = False
 
 
 @dataclass(frozen=True)
@@ -168,6 +170,13 @@ class Words:
             if key not in own and entry.article and not entry.agent and not spoken & taken:
                 foreign.append(key)
         return foreign
+
+    def parts(self) -> frozenset[str]:
+        """The names of the words file's parts of things ("door"), lower case."""
+        data = self.data
+        if data is None:
+            return frozenset()
+        return frozenset(name.lower() for entry in data.objects.values() if entry.part for name in entry.names)
 
     def lacking_in(self, text: str) -> tuple[str, ...]:
         """The things of :meth:`foreign` that ``text`` names as things: one of their names (or its
@@ -322,17 +331,20 @@ def _read_phrasing(where: str, value: Any) -> Phrasing:
     return Phrasing(say, state, deny)
 
 
+_FLAGS = ("plural", "article", "agent", "part")
+
+
 def _read_entry(where: str, value: Any) -> ObjectEntry:
     """An object's entry: a list of names, or a table of names and flags (article defaults to true)."""
     if isinstance(value, list):
         value = {"names": value}
-    if not isinstance(value, dict) or not set(value) <= {"names", "plural", "article", "agent"}:
-        raise InputError(f"{where}: expected a list of names or a table of names, plural, article and agent")
+    if not isinstance(value, dict) or not set(value) <= {"names", *_FLAGS}:
+        raise InputError(f"{where}: expected a list of names or a table of names, plural, article, agent and part")
     names = _strings(f"{where}.names", value.get("names", []))
-    flags = {key: value.get(key, key == "article") for key in ("plural", "article", "agent")}
+    flags = {key: value.get(key, key == "article") for key in _FLAGS}
     if not names or not all(isinstance(flag, bool) for flag in flags.values()):
-        raise InputError(f"{where}: needs names, and plural/article/agent must be true or false")
-    return ObjectEntry(names, flags["plural"], flags["article"], flags["agent"])
+        raise InputError(f"{where}: needs names, and plural/article/agent/part must be true or false")
+    return ObjectEntry(names, flags["plural"], flags["article"], flags["agent"], flags["part"])
 
 
 # ------------------------------------------------------------------ derived from the PDDL names

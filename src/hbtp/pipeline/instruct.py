@@ -17,12 +17,14 @@ it lacks (:func:`hbtp.llm.goal_prompt.refusal_of`), and that is the error, unles
 cannot stand (:func:`false_refusal`: the instruction does not say the thing, or the world has an
 object called so), when the model is asked again with refusals not offered; its answer loses the
 literals about objects the instruction never names, when others are about objects it names
-(:func:`unsaid_dropped`). A completion-style model's accepted conjunction is then extended with a
-literal for each object the instruction names and the goal leaves out (asked as a continuation of
-its own goal; a literal that draws an objection is dropped). An instruction that names no object
-of the domain and shares no word with a known instruction is refused before the model is asked (a
-model under a grammar always answers *some* goal): for what it names that the world lacks, when it
-names such a thing ("bring me the guitar"), else as about nothing the domain knows.
+(:func:`unsaid_dropped`), and a literal it wrote positive where the instruction says it negated
+becomes its negation (:mod:`hbtp.pipeline.polarity`). A completion-style model's accepted
+conjunction is then extended with a literal for each object the instruction names and the goal
+leaves out (asked as a continuation of its own goal; a literal that draws an objection is dropped).
+An instruction that names no object of the domain and shares no word with a known instruction is
+refused before the model is asked (a model under a grammar always answers *some* goal): for what it
+names that the world lacks, when it names such a thing ("bring me the guitar"), else as about
+nothing the domain knows.
 """
 
 from __future__ import annotations
@@ -56,6 +58,8 @@ from hbtp.llm.goal_prompt import (
 )
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
+from hbtp.pipeline.polarity import negations_mended
+from hbtp.pipeline.strangers import asked_about
 
 log = logging.getLogger(__name__)
 
@@ -75,8 +79,12 @@ class InstructOptions:
     #: Drop a taught model's literals about objects the instruction does not name (when it names
     #: those of other literals of the same conjunction): :func:`unsaid_dropped`.
     drop_unsaid: bool = True
+    #: Turn a taught model's positive literal into its negation where the instruction says it negated
+    #: ("don't set the temperature low"): :func:`hbtp.pipeline.polarity.negations_mended`.
+    mend_negations: bool = True
     #: Refuse a goal that puts an object the instruction never names in the place of a thing it names
-    #: that the world lacks (:func:`substituted`).
+    #: that the world lacks (:func:`substituted`), or drops a thing the world lacks that the
+    #: instruction asks about (:func:`hbtp.pipeline.strangers.asked_about`).
     refuse_lacking: bool = True
 
 
@@ -218,8 +226,8 @@ def goal_from_instruction(
         spent += reply.seconds
         proposed = goal_reply(reply.text)
         lacking = refusal_of(proposed) if taught else None
-        if taught and lacking is None and options.drop_unsaid:
-            proposed = unsaid_dropped(scenario, text, proposed)
+        if taught and lacking is None:
+            proposed = _read_against(scenario, text, proposed, options)
         verdict = _verdict(scenario, text, proposed, lacking)
         attempts.append(GoalAttempt(number, reply.text, "" if lacking else proposed, verdict.objections,
                                     verdict.doubtful, reply.seconds))  # fmt: skip
@@ -237,6 +245,17 @@ def goal_from_instruction(
     return _refused_if_substituted(scenario, _choose(text, attempts, spent), options)
 
 
+def _read_against(scenario: Scenario, text: str, proposed: str, options: InstructOptions) -> str:
+    """A taught model's goal read against the words of its instruction: literals about objects it
+    does not name left out (:func:`unsaid_dropped`), literals it says negated negated
+    (:func:`hbtp.pipeline.polarity.negations_mended`)."""
+    if options.drop_unsaid:
+        proposed = unsaid_dropped(scenario, text, proposed)
+    if options.mend_negations:
+        proposed = negations_mended(scenario, text, proposed)
+    return proposed
+
+
 def _unrelated(scenario: Scenario, text: str, options: InstructOptions) -> GoalChoice:
     """The refusal of ``text``, which names no object of the world and is like no known instruction:
     for what it names that the world lacks ("the electric fan should be on"), as a taught model
@@ -248,10 +267,12 @@ def _unrelated(scenario: Scenario, text: str, options: InstructOptions) -> GoalC
 
 
 def _refused_if_substituted(scenario: Scenario, choice: GoalChoice, options: InstructOptions) -> GoalChoice:
-    """``choice`` refused when its goal stands in for a thing the instruction names and the world lacks."""
+    """``choice`` refused when its goal stands in for a thing the instruction names and the world
+    lacks, or when the instruction asks about such a thing (:mod:`hbtp.pipeline.strangers`)."""
     if not options.refuse_lacking or choice.goal is None:
         return choice
     strangers = substituted(scenario, choice.instruction, choice.goal)
+    strangers = strangers or " and ".join(asked_about(scenario, choice.instruction))
     return replace(choice, goal=None, message=lacks(scenario, strangers), lacking=strangers) if strangers else choice
 
 

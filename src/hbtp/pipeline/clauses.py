@@ -1,0 +1,52 @@
+"""An instruction read as clauses of words, and the words that say a literal: what the checks of a
+taught model's answer (:mod:`hbtp.pipeline.polarity`, :mod:`hbtp.pipeline.strangers`) compare."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable
+
+from hbtp.domains.scenarios import Scenario
+from hbtp.domains.words import COPULA, SLOT, Phrasing
+
+_CLAUSES = re.compile(r"[,;:.!?()\u2014\u2013\"]| - |\b(?:and|but|then|or|so|while)\b")
+_TOKEN = re.compile(r"[a-z0-9]+(?:'[a-z]+)?")
+#: Words that only frame a state or a deed ("leave it on", "keep it shut"), left out of its words.
+_FRAMES = frozenset(("don't", "do", "not", "never", "leave", "keep", "let", "be", "have", "want"))
+#: Symbols named like particles ("on", "down") are not counted as named: in a clause they say a state.
+_PARTICLES = frozenset(("on", "off", "up", "down", "in", "out"))
+
+
+def clauses(text: str) -> list[tuple[str, ...]]:
+    """The clauses of ``text`` (cut at punctuation and at "and", "but", "then", "or", "so",
+    "while"), each as its lower-case words, apostrophes kept ("don't"); empty ones left out."""
+    cut = (tokens(part) for part in _CLAUSES.split(text) if part)
+    return [said for said in cut if said]
+
+
+def tokens(text: str) -> tuple[str, ...]:
+    """The lower-case words of ``text``, apostrophes kept ("don't")."""
+    return tuple(_TOKEN.findall(text.lower().replace("\u2019", "'")))
+
+
+def phrasing_runs(phrasing: Phrasing) -> list[tuple[str, ...]]:
+    """The words that say a literal of ``phrasing`` without its objects: each state's complement
+    ("switched on"), each deed ("turn on") and each unwanted deed ("leave on"), framing words aside."""
+    texts = [*phrasing.say, *phrasing.deny]
+    for state in phrasing.state:
+        match = COPULA.match(state)
+        texts.append(match.group(3) if match else state)
+    runs = [tuple(w for w in tokens(SLOT.sub(" ", text)) if w not in _FRAMES) for text in texts]
+    return list(dict.fromkeys(run for run in runs if run))
+
+
+def in_order(run: tuple[str, ...], said: Iterable[str]) -> bool:
+    """Whether the words of ``run`` come in ``said`` in this order (others may stand between)."""
+    rest = iter(said)
+    return bool(run) and all(word in rest for word in run)
+
+
+def world_objects(scenario: Scenario) -> frozenset[str]:
+    """The world's objects and constants that a clause can name (those named like particles aside:
+    a café world's ``On`` and ``Down`` are states said, not things)."""
+    return frozenset(name for name in scenario.task.symbols if name.lower() not in _PARTICLES)

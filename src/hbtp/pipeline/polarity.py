@@ -1,0 +1,128 @@
+"""Negations an instruction says and a goal read from it left out: "turn on the AC, but don't set
+the temperature low" read as ``Active_AC & Low_ACTemperature``.
+
+A small model under a grammar writes the literal an instruction talks about, and often misses the
+"not" around it. A positive literal of a goal is *said negated* when one clause of the instruction
+(cut at punctuation and at "and", "but", "then", "or", "so", "while") has a negation that governs it:
+
+* a forbidden deed or an unwanted state, "don't", "do not", "never", "not to", "I don't want", with
+  the objects of the literal and no others, and the literal's words (its phrasing's state,
+  deed or unwanted deed, :class:`hbtp.domains.words.Phrasing`), after the negation: "don't set the
+  temperature low", "take care not to close the curtain";
+* a state that must not hold, "should not be", "mustn't be", "isn't supposed to be", or "is not" /
+  "isn't" after "make sure", "ensure" or "see to it": the objects of the literal and no others
+  anywhere in the clause, the literal's words after the negation: "make sure the curtain isn't closed".
+
+A negation that reports a state ("the microwave isn't plugged in, could you plug it in?"), softens
+a request ("don't forget to switch on the TV") or sets things aside ("the plain milk, not the AD
+milk") does not govern the literal. Such a literal becomes its negation (:func:`negations_mended`);
+the checks then judge the goal as they judge any other (one that now holds at the start is refused).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+
+from hbtp.domains.scenarios import Scenario
+from hbtp.domains.words import Words, words_for
+from hbtp.errors import InputError
+from hbtp.llm.goal_prompt import PLACEHOLDERS
+from hbtp.logic.atoms import Atom
+from hbtp.logic.goals import format_goal, parse_goal
+from hbtp.pipeline.clauses import clauses, in_order, phrasing_runs, world_objects
+
+log = logging.getLogger(__name__)
+
+#: Negations of a deed or of an unwanted state: the objects and the words follow them.
+_DEED = (("don't",), ("do", "not"), ("never",), ("not", "to"), ("don't", "want"), ("do", "not", "want"))
+#: Negations of a state: the objects may come before them (the subject), the words follow.
+_STATE = (("shouldn't",), ("should", "not"), ("mustn't",), ("must", "not"), ("isn't", "supposed"),
+          ("aren't", "supposed"), ("is", "not", "supposed"), ("are", "not", "supposed"))  # fmt: skip
+#: "is not" is a report ("the microwave isn't plugged in") unless a clause asks for it.
+_ASKED_STATE = (("isn't",), ("aren't",), ("is", "not"), ("are", "not"))
+#: A bare "not" after these words reports a state ("the TV is not on") or hedges ("if not").
+_REPORTING = frozenset(("is", "are", "was", "were", "am", "be", "been", "do", "does", "did", "if", "or", "whether",
+                        "could", "can", "would", "will", "has", "have", "had"))  # fmt: skip
+#: A bare "not" before these words sets a thing aside ("the milk, not the juice").
+_ASIDE = frozenset(("the", "a", "an", "my", "your", "this", "that", "those", "these", "any", "only", "just"))
+_PRONOUNS = frozenset(("it", "them", "they"))
+_ASKING = (("make", "sure"), ("ensure",), ("see", "to", "it"), ("see", "that"))
+#: Words after "don't" that soften a request rather than forbid a deed.
+_SOFTENERS = frozenset(("forget", "hesitate", "mind", "fail", "worry", "know", "think", "care", "need"))
+
+
+def negations_mended(scenario: Scenario, text: str, goal: str) -> str:
+    """``goal`` with each positive literal the instruction ``text`` says negated (see the module
+    docstring) turned into its negation; a goal that does not parse is returned as it is."""
+    try:
+        terms = parse_goal(goal)
+    except InputError:
+        return goal
+    words = words_for(scenario)
+    said = clauses(text)
+    world = world_objects(scenario)
+    mended, turned = [], []
+    for term in terms:
+        new = tuple(literal.negate() if said_negated(words, said, literal, world) else literal for literal in term)
+        turned += [literal.underscored for literal, was in zip(new, term, strict=True) if literal != was]
+        mended.append(new)
+    if not turned:
+        return goal
+    log.info("instruction: %s said negated", ", ".join(turned))
+    return format_goal(mended)
+
+
+def said_negated(words: Words, clauses: Sequence[tuple[str, ...]], literal: Atom, world: frozenset[str]) -> bool:
+    """Whether one of ``clauses`` (their words, :func:`hbtp.pipeline.clauses.clauses`) has a negation
+    that governs the positive ``literal`` (see the module docstring); only the ``world``'s objects
+    count as named."""
+    if literal.negated:
+        return False
+    objects = {x for x in literal.args if x.lower() not in PLACEHOLDERS and not words.noun(x).agent}
+    if not objects:
+        return False
+    runs = phrasing_runs(words.phrasing(literal))
+    before: frozenset[str] = frozenset()
+    for said in clauses:
+        named = words.named_in(" ".join(said)) & world
+        if objects not in _readings(named, said, before):
+            before = named or before
+            continue
+        for at, width, deed in _negations(said):
+            after = said[at + width :]
+            if deed and objects not in _readings(words.named_in(" ".join(after)) & world, after, before):
+                continue
+            if any(in_order(run, after) for run in runs):
+                return True
+        before = named or before
+    return False
+
+
+def _readings(named: frozenset[str], said: Sequence[str], before: frozenset[str]) -> list[frozenset[str]]:
+    """The objects words that name ``named`` may be about: those, and, when they say "it" or "them",
+    those and one of ``before`` (named in the last clause that named any)."""
+    if not _PRONOUNS & set(said):
+        return [named]
+    return [named, *(named | {one} for one in sorted(before))]
+
+
+def _negations(said: tuple[str, ...]) -> list[tuple[int, int, bool]]:
+    """The negations in the words of a clause: where each starts, its width, and whether it is one of
+    a deed (:data:`_DEED`) or of a state."""
+    asking = any(_at(said, at, run) for at in range(len(said)) for run in _ASKING)
+    found = []
+    for at in range(len(said)):
+        for runs, deed in ((_DEED, True), (_STATE, False), (_ASKED_STATE if asking else (), False)):
+            for run in runs:
+                following = said[at + len(run) : at + len(run) + 1]
+                if _at(said, at, run) and not (deed and set(following) & _SOFTENERS):
+                    found.append((at, len(run), deed))
+        # "the fridge not open", not "the milk, not the juice"
+        if said[at] == "not" and at and said[at - 1] not in _REPORTING and not set(said[at + 1 : at + 2]) & _ASIDE:
+            found.append((at, 1, False))
+    return found
+
+
+def _at(said: Sequence[str], at: int, run: tuple[str, ...]) -> bool:
+    return tuple(said[at : at + len(run)]) == run

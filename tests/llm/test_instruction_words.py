@@ -1,0 +1,166 @@
+"""A taught model's goal read against its instruction's words: negations said and left out
+(hbtp.pipeline.polarity), things asked about that the world lacks (hbtp.pipeline.strangers)."""
+
+from __future__ import annotations
+
+import pytest
+
+from hbtp.domains import Scenario, load_scenario
+from hbtp.domains.words import parse_words
+from hbtp.errors import InputError
+from hbtp.llm.backend import PromptStyle, Reply, Request
+from hbtp.logic.goals import format_goal, parse_goal
+from hbtp.pipeline.instruct import InstructOptions, goal_from_instruction
+from hbtp.pipeline.polarity import negations_mended
+from hbtp.pipeline.strangers import asked_about
+from hbtp.train.example_set import make_examples
+from hbtp.train.examples import ExampleKind
+
+
+@pytest.fixture(scope="module")
+def robowaiter() -> Scenario:
+    return load_scenario("robowaiter")
+
+
+@pytest.fixture(scope="module")
+def small() -> Scenario:
+    return load_scenario("robothow-small")
+
+
+@pytest.mark.parametrize(
+    ("text", "goal", "mended"),
+    [
+        # a forbidden deed, an unwanted state, a state asked not to hold, a bare "not", a pronoun
+        ("Switch on the AC and never turn the temperature down.", "Active_AC & Low_ACTemperature",
+         "Active_AC & ~Low_ACTemperature"),
+        ("Wipe table 2; the curtain shouldn't end up drawn.", "IsClean_Table2 & Closed_Curtain",
+         "IsClean_Table2 & ~Closed_Curtain"),
+        ("Put the yogurt on the bar, and see to it that the hall light is not on.",
+         "On_Yogurt_Bar & Active_HallLight", "On_Yogurt_Bar & ~Active_HallLight"),
+        ("I want the tube light on and the curtain not closed.", "Active_TubeLight & Closed_Curtain",
+         "Active_TubeLight & ~Closed_Curtain"),
+        ("Take the coffee to table 3. It must not be on the bar.", "On_Coffee_Table3 & On_Coffee_Bar",
+         "On_Coffee_Table3 & ~On_Coffee_Bar"),
+        # in one alternative of two
+        ("Either clean the floor or don't switch on the AC.", "IsClean_Floor | Active_AC",
+         "IsClean_Floor | ~Active_AC"),
+    ],
+)  # fmt: skip
+def test_a_literal_said_negated_becomes_its_negation(robowaiter: Scenario, text: str, goal: str, mended: str) -> None:
+    assert negations_mended(robowaiter, text, goal) == mended
+
+
+@pytest.mark.parametrize(
+    ("text", "goal"),
+    [
+        # a report of the state to change, a softened request, a thing set aside
+        ("The hall light is not on; could you turn it on?", "Active_HallLight"),
+        ("Don't forget to switch on the AC.", "Active_AC"),
+        ("Bring the plain milk, not the AD milk, to the bar.", "On_Milk_Bar"),
+        ("Put the milk not the juice on the bar.", "On_Milk_Bar"),
+        # the negation is about another thing than the literal's
+        ("Turn on the tube light, but don't close the curtain.", "Active_TubeLight & ~Closed_Curtain"),
+        ("Don't take the chips over to table 2; keep them in your hands.", "Holding_Chips & ~On_Chips_Table2"),
+        # already negated, or about no object
+        ("Don't close the curtain.", "~Closed_Curtain"),
+        ("Not a goal at all", "On_Milk_Bar &"),
+    ],
+)  # fmt: skip
+def test_a_negation_that_does_not_govern_the_literal_changes_nothing(
+    robowaiter: Scenario, text: str, goal: str
+) -> None:
+    assert negations_mended(robowaiter, text, goal) == goal
+
+
+def test_generated_instructions_keep_their_goals_and_get_their_negations_back(small: Scenario) -> None:
+    """On instructions the verbaliser wrote (never the instruction dataset): the verbaliser's own
+    goal is never changed, and most goals with their negations made positive are mended."""
+    examples = make_examples(small, 150, seed=11)
+    said = [
+        (example.prompt.split("Instruction:", 1)[1].rsplit("\nGoals:", 1)[0].strip(), example.goal)
+        for example in (*examples.train, *examples.held_out)
+        if example.kind is ExampleKind.GOAL and not example.reply.strip().startswith("Unknown")
+    ]
+    assert len(said) > 100
+    assert [(text, goal) for text, goal in said if negations_mended(small, text, goal) != goal] == []
+    negated = [(text, parse_goal(goal)) for text, goal in said if "~" in goal]
+    assert len(negated) >= 15
+    mended = 0
+    for text, terms in negated:
+        positive = format_goal([tuple(literal.positive for literal in term) for term in terms])
+        back = parse_goal(negations_mended(small, text, positive))
+        mended += {frozenset(term) for term in back} == {frozenset(term) for term in terms}
+    assert mended >= 0.8 * len(negated)
+
+
+class Taught:
+    """A taught model that answers with the given goal."""
+
+    name = "scripted"
+    prompt_style = PromptStyle.COMPLETION
+    taught = True
+
+    def __init__(self, reply: str) -> None:
+        self.reply = reply
+
+    def complete(self, request: Request) -> Reply:
+        return Reply(self.reply, seconds=0.1)
+
+    def close(self) -> None:
+        return None
+
+
+def test_a_taught_models_answer_is_mended_before_the_checks(small: Scenario) -> None:
+    text = "Switch on the TV, but the microwave should not be left on."
+    backend = Taught("IsSwitchedOn_tv & IsSwitchedOn_microwave")
+    assert goal_from_instruction(small, text, backend).goal == "IsSwitchedOn_tv & ~IsSwitchedOn_microwave"
+    kept = goal_from_instruction(small, text, backend, options=InstructOptions(mend_negations=False))
+    assert kept.goal == "IsSwitchedOn_tv & IsSwitchedOn_microwave"
+
+
+def test_a_mended_goal_that_holds_at_the_start_is_refused(small: Scenario) -> None:
+    """The mended goal goes through the checks: the microwave is off at the start, so "it must not
+    be on" alone asks for nothing."""
+    assert small.task.atom_id("IsSwitchedOn_microwave") not in small.task.initial_state
+    choice = goal_from_instruction(small, "The microwave must not be switched on.", Taught("IsSwitchedOn_microwave"))
+    assert choice.goal is None
+    assert "already holds" in choice.message
+
+
+# ------------------------------------------------------------------ things the world lacks
+@pytest.mark.parametrize(
+    ("text", "things"),
+    [
+        ("Clean the TV and the guitar.", ("guitar",)),  # alone in a list beside a deed
+        ("The violin should be clean, and plug in the microwave.", ("violin",)),  # a state of its own
+        ("Either the guitar or the TV must be switched on.", ("guitar",)),
+        # named beside what is asked, a part of a thing, or in a clause about the world's objects
+        ("The match is about to start: switch on the TV.", ()),
+        ("Switch the TV on, the violin sounds lonely.", ()),
+        ("Put the milk in the fridge and shut the door.", ()),
+        ("Put the guitar on the kitchen table.", ()),
+        ("Clean the TV.", ()),
+    ],
+)
+def test_the_things_an_instruction_asks_about_that_the_world_lacks(
+    small: Scenario, text: str, things: tuple[str, ...]
+) -> None:
+    assert asked_about(small, text) == things
+
+
+def test_a_goal_that_drops_a_thing_asked_about_is_refused(small: Scenario) -> None:
+    text = "Clean the TV and the guitar."
+    choice = goal_from_instruction(small, text, Taught("IsClean_tv"))
+    assert choice.goal is None
+    assert choice.lacking == "guitar"
+    assert choice.message == "the instruction names guitar, which 'robothow-small' does not have"
+    kept = goal_from_instruction(small, text, Taught("IsClean_tv"), options=InstructOptions(refuse_lacking=False))
+    assert kept.goal == "IsClean_tv"
+
+
+def test_a_part_is_read_from_the_words_file() -> None:
+    data = parse_words({"objects": {"door": {"names": ["door"], "part": True}, "mug": ["mug"]}})
+    assert data.objects["door"].part
+    assert not data.objects["mug"].part
+    with pytest.raises(InputError, match="part must be true or false"):
+        parse_words({"objects": {"door": {"names": ["door"], "part": "yes"}}})
