@@ -94,17 +94,19 @@ def test_generated_instructions_keep_their_goals_and_get_their_negations_back(sm
 
 
 class Taught:
-    """A taught model that answers with the given goal."""
+    """A taught model that answers with the given goals in turn (the last one again and again)."""
 
     name = "scripted"
     prompt_style = PromptStyle.COMPLETION
     taught = True
 
-    def __init__(self, reply: str) -> None:
-        self.reply = reply
+    def __init__(self, *replies: str) -> None:
+        self.replies = list(replies)
+        self.asked = 0
 
     def complete(self, request: Request) -> Reply:
-        return Reply(self.reply, seconds=0.1)
+        self.asked += 1
+        return Reply(self.replies[min(self.asked, len(self.replies)) - 1], seconds=0.1)
 
     def close(self) -> None:
         return None
@@ -116,6 +118,15 @@ def test_a_taught_models_answer_is_mended_before_the_checks(small: Scenario) -> 
     assert goal_from_instruction(small, text, backend).goal == "IsSwitchedOn_tv & ~IsSwitchedOn_microwave"
     kept = goal_from_instruction(small, text, backend, options=InstructOptions(mend_negations=False))
     assert kept.goal == "IsSwitchedOn_tv & IsSwitchedOn_microwave"
+
+
+def test_a_literal_added_to_cover_a_named_object_is_mended_too(small: Scenario) -> None:
+    """The continuation that covers the microwave offers positive literals only."""
+    text = "Turn on the TV, but don't have the microwave on."
+    backend = Taught("IsSwitchedOn_tv", "IsSwitchedOn_microwave")
+    choice = goal_from_instruction(small, text, backend)
+    assert backend.asked == 2
+    assert choice.goal == "IsSwitchedOn_tv & ~IsSwitchedOn_microwave"
 
 
 def test_a_mended_goal_that_holds_at_the_start_is_refused(small: Scenario) -> None:

@@ -241,7 +241,8 @@ def goal_from_instruction(
             ask = partial(ask, refusal=False)
     cover = options.cover and backend.prompt_style is PromptStyle.COMPLETION
     if cover and attempts and attempts[-1].accepted:
-        spent += _cover(scenario, text, backend, request, attempts, deadline, by_words=taught)
+        mend = taught and options.mend_negations
+        spent += _cover(scenario, text, backend, request, attempts, deadline, by_words=taught, mend=mend)
     return _refused_if_substituted(scenario, _choose(text, attempts, spent), options)
 
 
@@ -389,11 +390,14 @@ def _cover(
     attempts: list[GoalAttempt],
     deadline: Deadline | None,
     by_words: bool = False,
+    mend: bool = False,
 ) -> float:
     """Extend an accepted conjunction with a literal for each object the instruction names and the
     goal leaves out (a small model stops after the first literal, a taught one may skip one of a
     long list); a literal that draws an objection is left out. Objects are named by their spelling,
-    and ``by_words`` (a taught model) also by the world's words for them. Returns the model's time."""
+    and ``by_words`` (a taught model) also by the world's words for them; with ``mend``, a literal
+    the instruction says negated is negated (the continuation offers positive literals only:
+    :func:`hbtp.pipeline.polarity.negations_mended`). Returns the model's time."""
     goal = attempts[-1].goal
     terms = parse_goal(goal)
     if len(terms) != 1 or not Connectives.licensed_by(text).conjunctions:
@@ -415,6 +419,7 @@ def _cover(
         spent += reply.seconds
         literal = goal_reply(reply.text)
         longer = f"{goal} & {literal}" if literal else goal
+        longer = negations_mended(scenario, text, longer) if mend else longer
         verdict = check_goal(scenario, longer) if literal else Verdict(("no literal in the reply",))
         attempts.append(
             GoalAttempt(len(attempts), reply.text, longer, verdict.objections, verdict.doubtful, reply.seconds)
