@@ -439,6 +439,8 @@ def test_false_refusal_knows_the_last_word_of_a_name(virtualhome: Scenario) -> N
         # a literal about what the instruction never names is left out
         ("It's stuffy in here, could you get the AC running?", "Active_AC & IsClean_Chairs", "Active_AC"),
         ("Could you brew a fresh cup of coffee?", "Exists_Coffee & On_NFCJuice_CoffeeStation", "Exists_Coffee"),
+        # a literal about a named object and one the instruction never names
+        ("Wipe table 1, please.", "IsClean_Table1 & On_Coffee_Table1", "IsClean_Table1"),
         # in each conjunction of a disjunction
         (
             "Hold the milk, or else turn the temperature down.",
@@ -518,6 +520,8 @@ def test_a_taught_conjunction_that_leaves_out_a_named_object_is_continued(robowa
     ("instruction", "answer", "refused"),
     [
         ("put the guitar on the desk", "IsOn_chips_desk", "guitar"),  # the chips stand in for the guitar
+        # the chips stand in for the guitar beside the book: their literal is kept to be refused
+        ("put the book and the guitar on the desk", "IsOn_book_desk & IsOn_chips_desk", "guitar"),
         ("leave the guitars on the kitchen table", "IsOn_chips_kitchentable", "guitars"),
         ("Store the milk in the fridge and shut the door", "IsIn_milk_fridge & IsClose_fridge", None),
         ("set the dish bowl on the kitchen table for my cereal", "IsOn_dishbowl_kitchentable", None),

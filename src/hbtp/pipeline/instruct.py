@@ -323,28 +323,30 @@ def false_refusal(scenario: Scenario, text: str, lacking: str) -> str | None:
 
 
 def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
-    """``goal`` without the literals about objects the instruction does not name, in each conjunction
-    that also has literals about objects it does name (by the world's words for them or their
-    spelling, :meth:`hbtp.domains.words.Words.named_in`), and without the literals that repeat
+    """``goal`` without the literals about an object the instruction does not name, in each
+    conjunction that also has literals about objects it does name (by the world's words for them or
+    their spelling, :meth:`hbtp.domains.words.Words.named_in`), and without the literals that repeat
     another of their conjunction but for one object, which the instruction does not name where the
     other's is named (:func:`_twin`). A taught model that has written the literal asked for tends
-    to go on with one more ("switch on the AC": ``Active_AC & IsClean_Chairs``; "bring the juice to
-    table 2": ``On_Juice_Table2 & On_Juice_Table1``). Where the instruction names a thing the world
-    lacks, a twin is kept: it may stand in for that thing ("put the bread and the pancake in the
-    fridge": ``IsIn_breadslice_fridge & IsIn_chips_fridge``), which :func:`substituted` refuses. A
-    literal with no object but the robot or a placeholder is kept; a goal that does not parse is
-    returned as it is, for the checks to refuse."""
+    to go on with one more ("switch on the AC": ``Active_AC & IsClean_Chairs``; "give the kitchen
+    cabinet a wipe": ``IsClean_kitchencabinet & IsIn_rag_kitchencabinet``; "bring the juice to table
+    2": ``On_Juice_Table2 & On_Juice_Table1``). Where the instruction names a thing the world lacks,
+    a literal is kept when it names one of its objects, and twins are kept: either may stand in for
+    that thing ("put the bread and the pancake in the fridge": ``IsIn_breadslice_fridge &
+    IsIn_chips_fridge``), which :func:`substituted` refuses. A literal with no object but the robot
+    or a placeholder is kept; a goal that does not parse is returned as it is, for the checks to
+    refuse."""
     try:
         terms = parse_goal(goal)
     except InputError:
         return goal
     words = words_for(scenario)
     spoken = _spoken_objects(words, text)
-    twins = not words.lacking_in(text)
+    strict = not words.lacking_in(text)
     kept, dropped = [], []
     for term in terms:
-        said = [literal for literal in term if not _about(words, literal) or _about(words, literal) & spoken]
-        said = [literal for literal in said if not (twins and _twin(words, literal, term, spoken))]
+        said = [literal for literal in term if _said(_about(words, literal), spoken, strict)]
+        said = [literal for literal in said if not (strict and _twin(words, literal, term, spoken))]
         if any(_about(words, literal) for literal in said) and len(said) < len(term):
             dropped += [literal.underscored for literal in term if literal not in said]
             term = tuple(said)
@@ -353,6 +355,12 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
         return goal
     log.info("instruction: left out %s (about objects the instruction does not name)", ", ".join(dropped))
     return format_goal(kept)
+
+
+def _said(about: set[str], spoken: frozenset[str], strict: bool) -> bool:
+    """Whether a literal about the objects ``about`` is said by an instruction that names
+    ``spoken``: all of them (``strict``) or one, or it is about no object."""
+    return not about or (about <= spoken if strict else bool(about & spoken))
 
 
 def _twin(words: Words, literal: Atom, term: Sequence[Atom], spoken: frozenset[str]) -> bool:
