@@ -80,7 +80,7 @@ class InstructOptions:
     #: those of other literals of the same conjunction): :func:`unsaid_dropped`.
     drop_unsaid: bool = True
     #: Turn a taught model's positive literal into its negation where the instruction says it negated
-    #: ("don't set the temperature low"): :func:`hbtp.pipeline.polarity.negations_mended`.
+    #: ("never turn the temperature down"): :func:`hbtp.pipeline.polarity.negations_mended`.
     mend_negations: bool = True
     #: Refuse a goal that puts an object the instruction never names in the place of a thing it names
     #: that the world lacks (:func:`substituted`), or drops a thing the world lacks that the
@@ -328,9 +328,9 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
     their spelling, :meth:`hbtp.domains.words.Words.named_in`), and without the literals that repeat
     another of their conjunction but for one object, which the instruction does not name where the
     other's is named (:func:`_twin`). A taught model that has written the literal asked for tends
-    to go on with one more ("switch on the AC": ``Active_AC & IsClean_Chairs``; "give the kitchen
-    cabinet a wipe": ``IsClean_kitchencabinet & IsIn_rag_kitchencabinet``; "bring the juice to table
-    2": ``On_Juice_Table2 & On_Juice_Table1``). Where the instruction names a thing the world lacks,
+    to go on with one more ("switch on the AC": ``Active_AC & IsClean_Chairs``; "wipe the fridge":
+    ``IsClean_fridge & IsIn_rag_fridge``; "bring the juice to table 2": ``On_Juice_Table2 &
+    On_Juice_Table1``). Where the instruction names a thing the world lacks,
     a literal is kept when it names one of its objects, and twins are kept: either may stand in for
     that thing ("put the bread and the pancake in the fridge": ``IsIn_breadslice_fridge &
     IsIn_chips_fridge``), which :func:`substituted` refuses. A literal with no object but the robot

@@ -1,5 +1,5 @@
-"""Negations an instruction says and a goal read from it left out: "turn on the AC, but don't set
-the temperature low" read as ``Active_AC & Low_ACTemperature``.
+"""Negations an instruction says and a goal read from it left out: "switch on the AC and never turn
+the temperature down" read as ``Active_AC & Low_ACTemperature``.
 
 A small model under a grammar writes the literal an instruction talks about, and often misses the
 "not" around it. A positive literal of a goal is *said negated* when one clause of the instruction
@@ -7,11 +7,11 @@ A small model under a grammar writes the literal an instruction talks about, and
 
 * a forbidden deed or an unwanted state, "don't", "do not", "never", "not to", "I don't want", with
   the objects of the literal and no others, and the literal's words (its phrasing's state,
-  deed or unwanted deed, :class:`hbtp.domains.words.Phrasing`), after the negation: "don't set the
-  temperature low", "take care not to close the curtain";
+  deed or unwanted deed, :class:`hbtp.domains.words.Phrasing`), after the negation: "never turn the
+  temperature down", "take care not to close the curtain";
 * a state that must not hold, "should not be", "mustn't be", "isn't supposed to be", or "is not" /
   "isn't" after "make sure", "ensure" or "see to it": the objects of the literal and no others
-  anywhere in the clause, the literal's words after the negation: "make sure the curtain isn't closed".
+  anywhere in the clause, the literal's words after the negation: "make sure the fridge isn't open".
 
 A negation that reports a state ("the microwave isn't plugged in, could you plug it in?"), softens
 a request ("don't forget to switch on the TV") or sets things aside ("the plain milk, not the AD
