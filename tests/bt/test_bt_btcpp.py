@@ -7,6 +7,8 @@ import json
 import random
 import re
 import socket
+import subprocess
+import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
@@ -19,6 +21,7 @@ from hbtp.bt.btcpp_engine import BtcppEngine, Watch, btcpp_binding
 from hbtp.bt.btlog import read_btlog
 from hbtp.bt.disturb import RandomDisturbance, event_model
 from hbtp.bt.export import export_tree
+from hbtp.bt.groot2 import groot2_publisher
 from hbtp.bt.simulate import simulate
 from hbtp.cli import main
 from hbtp.domains import DomainBuilder, load_scenario
@@ -359,9 +362,38 @@ def test_hbtp_run_publishes_to_groot2_and_refuses_a_taken_port(
     holder = factory.create_tree_from_text(
         '<root BTCPP_format="4"><BehaviorTree ID="M"><C name="c"/></BehaviorTree></root>'
     )
-    publisher = bt.Groot2Publisher(holder, port)
+    publisher = groot2_publisher(bt, holder, port)
     capsys.readouterr()
     assert main(["run", str(tree), "--engine", "btcpp", "--groot", str(port)]) == 2
     assert f"cannot publish to Groot2 on port {port}" in capsys.readouterr().err
     del publisher
     assert main(["run", str(tree), "--groot", str(port)]) == 2  # hbtp's own engine has no Groot2 view
+
+
+_DROPPED_AT_ONCE = """
+import socket, sys
+import behaviortreepy as bt
+from hbtp.bt.groot2 import groot2_publisher
+factory = bt.BehaviorTreeFactory()
+factory.register_simple_condition("C", lambda node: bt.NodeStatus.SUCCESS)
+tree = factory.create_tree_from_text('<root BTCPP_format="4"><BehaviorTree ID="M"><C name="c"/></BehaviorTree></root>')
+with socket.socket() as probe:
+    probe.bind(("127.0.0.1", 0))
+    port = probe.getsockname()[1]
+for _ in range(int(sys.argv[1])):
+    publisher = groot2_publisher(bt, tree, port)
+    del publisher
+print("dropped")
+"""
+
+
+def test_a_groot2_publisher_dropped_at_once_does_not_hang() -> None:
+    """BT.CPP's publisher dropped before its server thread has begun hangs in its destructor (the
+    thread sets its flag after the destructor cleared it); hbtp's waits for the thread to begin.
+    In a process of its own, bounded: a hang fails the test instead of stopping the suite."""
+    pytest.importorskip("behaviortreepy")
+    done = subprocess.run(
+        [sys.executable, "-c", _DROPPED_AT_ONCE, "20"], capture_output=True, text=True, timeout=60, check=False
+    )
+    assert done.returncode == 0, done.stderr[-500:]
+    assert done.stdout.strip() == "dropped"

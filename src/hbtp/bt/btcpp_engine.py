@@ -41,6 +41,7 @@ from typing import Any
 
 from hbtp.bt.btcpp import tree_to_btcpp, used_node_ids
 from hbtp.bt.btlog import btlog_paths, read_btlog
+from hbtp.bt.groot2 import groot2_publisher
 from hbtp.bt.live import LiveOptions
 from hbtp.bt.nodes import Node
 from hbtp.bt.simulate import simulate
@@ -251,7 +252,7 @@ class Watcher:
         self.policy, self.trees = policy, self.trees + 1
         if port is not None:
             try:
-                self.publisher = self.bt.Groot2Publisher(policy.tree, port)
+                self.publisher = groot2_publisher(self.bt, policy.tree, port)
             except RuntimeError as error:  # the port is taken (by Groot2Publisher or another program)
                 raise InputError(f"cannot publish to Groot2 on port {port}: {error}") from None
         if self.watch.btlog is not None:
