@@ -21,10 +21,12 @@ literals about objects the instruction never names, when others are about object
 becomes its negation (:mod:`hbtp.pipeline.polarity`). A completion-style model's accepted
 conjunction is then extended with a literal for each object the instruction names and the goal
 leaves out (asked as a continuation of its own goal; a literal that draws an objection is dropped).
-An instruction that names no object of the domain and shares no word with a known instruction is
-refused before the model is asked (a model under a grammar always answers *some* goal): for what it
-names that the world lacks, when it names such a thing ("bring me the guitar"), else as about
-nothing the domain knows.
+A goal is refused when it stands in for a thing the instruction names that the world lacks
+(:func:`substituted`), or leaves out such a thing the instruction asks about
+(:mod:`hbtp.pipeline.strangers`). An instruction that names no object of the domain and shares no
+word with a known instruction is refused before the model is asked (a model under a grammar always
+answers *some* goal): for what it names that the world lacks, when it names such a thing ("bring
+me the guitar"), else as about nothing the domain knows.
 """
 
 from __future__ import annotations
@@ -330,12 +332,11 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
     other's is named (:func:`_twin`). A taught model that has written the literal asked for tends
     to go on with one more ("switch on the AC": ``Active_AC & IsClean_Chairs``; "wipe the fridge":
     ``IsClean_fridge & IsIn_rag_fridge``; "bring the juice to table 2": ``On_Juice_Table2 &
-    On_Juice_Table1``). Where the instruction names a thing the world lacks,
-    a literal is kept when it names one of its objects, and twins are kept: either may stand in for
-    that thing ("put the bread and the pancake in the fridge": ``IsIn_breadslice_fridge &
-    IsIn_chips_fridge``), which :func:`substituted` refuses. A literal with no object but the robot
-    or a placeholder is kept; a goal that does not parse is returned as it is, for the checks to
-    refuse."""
+    On_Juice_Table1``). Where the instruction names a thing the world lacks, a literal is kept when
+    it names one of its objects, and twins are kept: either may stand in for that thing ("put the
+    bread and the pancake in the fridge": ``IsIn_breadslice_fridge & IsIn_chips_fridge``), which
+    :func:`substituted` refuses. A literal with no object but the robot or a placeholder is kept; a
+    goal that does not parse is returned as it is, for the checks to refuse."""
     try:
         terms = parse_goal(goal)
     except InputError:
