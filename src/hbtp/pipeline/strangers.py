@@ -19,9 +19,9 @@ from hbtp.domains.words import Words, words_for
 from hbtp.logic.atoms import Atom
 from hbtp.pipeline.clauses import clauses, in_order, phrasing_runs, world_objects
 
-#: Words too plain to say a state or a deed on their own ("the tv is on", "bring it to the bar").
 #: Words that may stand beside a thing said alone in a list ("and the box", "either the cereal").
 _ALONE = frozenset(("the", "a", "an", "my", "your", "some", "either", "both", "neither", "also", "too", "nor"))
+#: Words too plain to say a state or a deed on their own ("the tv is on", "bring it to the bar").
 _PLAIN = frozenset(("on", "in", "to", "at", "of", "up", "off", "into", "onto", "by", "with", "from", "for", "top"))
 
 
@@ -35,14 +35,14 @@ def asked_about(scenario: Scenario, text: str) -> tuple[str, ...]:
     runs = [run for run in _world_runs(words, scenario) if set(run) - _PLAIN]
     parts = words.parts()
     said = clauses(text)
-    says = [any(in_order(run, words_) for run in runs) for words_ in said]
+    says = [any(in_order(run, clause) for run in runs) for clause in said]
     found: list[str] = []
-    for at, words_ in enumerate(said):
-        spoken = " ".join(words_)
+    for at, clause in enumerate(said):
+        spoken = " ".join(clause)
         strangers = [thing for thing in words.lacking_in(spoken) if thing.split()[-1] not in parts]
         if not strangers or words.named_in(spoken) & world:
             continue
-        alone = set(words_) <= _ALONE | {w for thing in strangers for w in thing.split()}
+        alone = set(clause) <= _ALONE | {w for thing in strangers for w in thing.split()}
         if says[at] or (alone and any(says[max(at - 1, 0) : at + 2])):
             found += strangers
     return tuple(dict.fromkeys(found))
