@@ -169,6 +169,21 @@ def test_a_goal_that_drops_a_thing_asked_about_is_refused(small: Scenario) -> No
     assert kept.goal == "IsClean_tv"
 
 
+def test_a_refusal_for_another_reason_names_the_thing_asked_about(small: Scenario) -> None:
+    """The TV is off at the start: the goal asks for nothing, but the instruction's first fault is
+    the guitar, which the world lacks."""
+    assert small.task.atom_id("IsSwitchedOn_tv") not in small.task.initial_state
+    text = "Make sure the TV is not on, then switch on the guitar."
+    choice = goal_from_instruction(small, text, Taught("~IsSwitchedOn_tv"))
+    assert choice.goal is None
+    assert choice.lacking == "guitar"
+    assert choice.message == "the instruction names guitar, which 'robothow-small' does not have"
+    alone = goal_from_instruction(small, "Make sure the TV is not on.", Taught("~IsSwitchedOn_tv"))
+    assert alone.goal is None
+    assert alone.lacking is None
+    assert "already holds" in alone.message
+
+
 def test_a_part_is_read_from_the_words_file() -> None:
     data = parse_words({"objects": {"door": {"names": ["door"], "part": True}, "mug": ["mug"]}})
     assert data.objects["door"].part

@@ -271,10 +271,12 @@ def _unrelated(scenario: Scenario, text: str, options: InstructOptions) -> GoalC
 
 def _refused_if_substituted(scenario: Scenario, choice: GoalChoice, options: InstructOptions) -> GoalChoice:
     """``choice`` refused when its goal stands in for a thing the instruction names and the world
-    lacks, or when the instruction asks about such a thing (:mod:`hbtp.pipeline.strangers`)."""
-    if not options.refuse_lacking or choice.goal is None:
+    lacks, or when the instruction asks about such a thing (:mod:`hbtp.pipeline.strangers`); a
+    choice refused for another reason (a goal that holds at the start, no acceptable answer) is
+    refused for that thing instead, the reason that comes first."""
+    if not options.refuse_lacking or choice.lacking is not None:
         return choice
-    strangers = substituted(scenario, choice.instruction, choice.goal)
+    strangers = substituted(scenario, choice.instruction, choice.goal) if choice.goal is not None else ""
     strangers = strangers or " and ".join(asked_about(scenario, choice.instruction))
     return replace(choice, goal=None, message=lacks(scenario, strangers), lacking=strangers) if strangers else choice
 
