@@ -7,7 +7,9 @@ import re
 from collections.abc import Iterable
 
 from hbtp.domains.scenarios import Scenario
-from hbtp.domains.words import COPULA, SLOT, Phrasing
+from hbtp.domains.words import COPULA, SLOT, Phrasing, Words
+from hbtp.llm.goal_prompt import PLACEHOLDERS
+from hbtp.logic.atoms import Atom
 
 _CLAUSES = re.compile(r"[,;:.!?()\u2014\u2013\"]| - |\b(?:and|but|then|or|so|while)\b")
 _TOKEN = re.compile(r"[a-z0-9]+(?:'[a-z]+)?")
@@ -50,3 +52,8 @@ def world_objects(scenario: Scenario) -> frozenset[str]:
     """The world's objects and constants that a clause can name (those named like particles aside:
     a café world's ``On`` and ``Down`` are states said, not things)."""
     return frozenset(name for name in scenario.task.symbols if name.lower() not in _PARTICLES)
+
+
+def objects_of(words: Words, literal: Atom) -> set[str]:
+    """The objects ``literal`` is about: its arguments but the robot and placeholders."""
+    return {x for x in literal.args if x.lower() not in PLACEHOLDERS and not words.noun(x).agent}

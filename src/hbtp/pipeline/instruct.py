@@ -60,6 +60,7 @@ from hbtp.llm.goal_prompt import (
 )
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
+from hbtp.pipeline.clauses import objects_of
 from hbtp.pipeline.polarity import negations_mended
 from hbtp.pipeline.strangers import asked_about
 
@@ -291,7 +292,7 @@ def substituted(scenario: Scenario, text: str, goal: str) -> str:
     strangers = words.lacking_in(text)
     if not strangers:
         return ""
-    objects = {x for term in parse_goal(goal) for atom in term for x in _about(words, atom)}
+    objects = {x for term in parse_goal(goal) for atom in term for x in objects_of(words, atom)}
     return " and ".join(strangers) if objects - _spoken_objects(words, text) else ""
 
 
@@ -348,9 +349,9 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
     strict = not words.lacking_in(text)
     kept, dropped = [], []
     for term in terms:
-        said = [literal for literal in term if _said(_about(words, literal), spoken, strict)]
+        said = [literal for literal in term if _said(objects_of(words, literal), spoken, strict)]
         said = [literal for literal in said if not (strict and _twin(words, literal, term, spoken))]
-        if any(_about(words, literal) for literal in said) and len(said) < len(term):
+        if any(objects_of(words, literal) for literal in said) and len(said) < len(term):
             dropped += [literal.underscored for literal in term if literal not in said]
             term = tuple(said)
         kept.append(term)
@@ -370,7 +371,7 @@ def _twin(words: Words, literal: Atom, term: Sequence[Atom], spoken: frozenset[s
     """Whether another literal of ``term`` is ``literal`` but for one argument, which ``spoken`` holds
     there and not in ``literal`` (``On_Juice_Table1`` beside ``On_Juice_Table2``, table 2 named)."""
     for at, arg in enumerate(literal.args):
-        if arg in spoken or arg not in _about(words, literal):
+        if arg in spoken or arg not in objects_of(words, literal):
             continue
         kind = (literal.predicate, literal.negated, len(literal.args))
         rest = literal.args[:at] + literal.args[at + 1 :]
@@ -380,11 +381,6 @@ def _twin(words: Words, literal: Atom, term: Sequence[Atom], spoken: frozenset[s
             if other.args[:at] + other.args[at + 1 :] == rest:
                 return True
     return False
-
-
-def _about(words: Words, literal: Atom) -> set[str]:
-    """The objects ``literal`` is about: its arguments but the robot and placeholders."""
-    return {x for x in literal.args if x.lower() not in PLACEHOLDERS and not words.noun(x).agent}
 
 
 def _spoken_objects(words: Words, text: str) -> frozenset[str]:

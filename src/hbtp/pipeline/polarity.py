@@ -27,10 +27,9 @@ from collections.abc import Sequence
 from hbtp.domains.scenarios import Scenario
 from hbtp.domains.words import Words, words_for
 from hbtp.errors import InputError
-from hbtp.llm.goal_prompt import PLACEHOLDERS
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
-from hbtp.pipeline.clauses import clauses, in_order, phrasing_runs, world_objects
+from hbtp.pipeline.clauses import clauses, in_order, objects_of, phrasing_runs, world_objects
 
 log = logging.getLogger(__name__)
 
@@ -79,7 +78,7 @@ def said_negated(words: Words, clauses: Sequence[tuple[str, ...]], literal: Atom
     count as named."""
     if literal.negated:
         return False
-    objects = {x for x in literal.args if x.lower() not in PLACEHOLDERS and not words.noun(x).agent}
+    objects = objects_of(words, literal)
     if not objects:
         return False
     runs = phrasing_runs(words.phrasing(literal))
