@@ -76,6 +76,21 @@ def test_impossible_goals_are_refused_with_the_reason(virtualhome: Scenario, goa
     assert not verdict.doubtful
 
 
+def test_a_goal_no_plan_reaches_is_refused_and_asked_again() -> None:
+    """Holding the vacuum cup and having it on table 2: each can be made true, never both (putting
+    it down ends the holding); the answer asked again is chosen."""
+    robowaiter = load_scenario("robowaiter")
+    stuck = "Holding_VacuumCup & On_VacuumCup_Table2"
+    assert check_goal(robowaiter, stuck).objections == (
+        "no plan makes Holding_VacuumCup and On_VacuumCup_Table2 hold together",
+    )
+    assert check_goal(robowaiter, f"{stuck} | On_Coffee_Table1").objections == ()  # one way is enough
+    backend = Scripted([stuck, "On_VacuumCup_Table2"])
+    choice = goal_from_instruction(robowaiter, "Carry the vacuum cup over to table 2.", backend)
+    assert choice.goal == "On_VacuumCup_Table2"
+    assert len(backend.requests) == 2
+
+
 def test_a_goal_that_already_holds_is_doubtful_and_a_good_one_passes(virtualhome: Scenario) -> None:
     holding = check_goal(virtualhome, "IsClose_fridge")
     assert holding.doubtful

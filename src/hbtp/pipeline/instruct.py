@@ -5,7 +5,9 @@ before any planning:
 
 * *refused*: not a goal (malformed, unknown names), a contradiction (``IsOpen_fridge &
   ~IsOpen_fridge``, or literals the domain's proved mutexes forbid together: ``IsOpen_fridge &
-  IsClose_fridge``), or literals no action can make true (these are left out of the next grammar);
+  IsClose_fridge``), literals no action can make true (these are left out of the next grammar),
+  or literals no plan makes hold together for want of a last action (``Holding_VacuumCup &
+  On_VacuumCup_Table2``: :func:`hbtp.planning.regression.stuck`);
 * *doubtful*: the goal already holds in s0 (the robot would do nothing).
 
 A refused goal goes back to the model with the reason (the blacklist of LLM-OBTEA) for at most
@@ -63,6 +65,7 @@ from hbtp.logic.goals import format_goal, parse_goal
 from hbtp.pipeline.clauses import objects_of
 from hbtp.pipeline.polarity import negations_mended
 from hbtp.pipeline.strangers import asked_about
+from hbtp.planning.regression import stuck
 
 log = logging.getLogger(__name__)
 
@@ -174,6 +177,10 @@ def check_goal(scenario: Scenario, text: str) -> Verdict:
         return Verdict((f"{names} cannot hold together",))
     if goal.holds(extended.task.initial_state):
         return Verdict(("it already holds at the start",), doubtful=True)
+    live = [d for d, clash in zip(goal.reachable, clashes, strict=True) if clash is None]
+    if all(stuck(extended.task, d, proved) for d in live):
+        names = " and ".join(extended.task.atoms[i].underscored for i in sorted(live[0]))
+        return Verdict((f"no plan makes {names} hold together",))
     return Verdict()
 
 
