@@ -1,5 +1,6 @@
 """A taught model's goal read against its instruction's words: negations said and left out
-(hbtp.pipeline.polarity), things asked about that the world lacks (hbtp.pipeline.strangers)."""
+(hbtp.pipeline.polarity), things asked about that the world lacks (hbtp.pipeline.strangers),
+literals about the robot itself not asked for (hbtp.pipeline.own_state)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from hbtp.errors import InputError
 from hbtp.llm.backend import PromptStyle, Reply, Request
 from hbtp.logic.goals import format_goal, parse_goal
 from hbtp.pipeline.instruct import InstructOptions, goal_from_instruction
+from hbtp.pipeline.own_state import unasked_own_dropped
 from hbtp.pipeline.polarity import negations_mended
 from hbtp.pipeline.strangers import asked_about
 from hbtp.train.example_set import make_examples
@@ -72,15 +74,23 @@ def test_a_negation_that_does_not_govern_the_literal_changes_nothing(
     assert negations_mended(robowaiter, text, goal) == goal
 
 
-def test_generated_instructions_keep_their_goals_and_get_their_negations_back(small: Scenario) -> None:
-    """On instructions the verbaliser wrote (never the instruction dataset): the verbaliser's own
-    goal is never changed, and most goals with their negations made positive are mended."""
+@pytest.fixture(scope="module")
+def generated(small: Scenario) -> list[tuple[str, str]]:
+    """Instructions the verbaliser wrote (never the instruction dataset), with their goals."""
     examples = make_examples(small, 150, seed=11)
-    said = [
+    return [
         (example.prompt.split("Instruction:", 1)[1].rsplit("\nGoals:", 1)[0].strip(), example.goal)
         for example in (*examples.train, *examples.held_out)
         if example.kind is ExampleKind.GOAL and not example.reply.strip().startswith("Unknown")
     ]
+
+
+def test_generated_instructions_keep_their_goals_and_get_their_negations_back(
+    small: Scenario, generated: list[tuple[str, str]]
+) -> None:
+    """The verbaliser's own goal is never changed, and most goals with their negations made
+    positive are mended."""
+    said = generated
     assert len(said) > 100
     assert [(text, goal) for text, goal in said if negations_mended(small, text, goal) != goal] == []
     negated = [(text, parse_goal(goal)) for text, goal in said if "~" in goal]
@@ -112,12 +122,23 @@ class Taught:
         return None
 
 
-def test_a_taught_models_answer_is_mended_before_the_checks(small: Scenario) -> None:
-    text = "Switch on the TV, but the microwave should not be left on."
-    backend = Taught("IsSwitchedOn_tv & IsSwitchedOn_microwave")
-    assert goal_from_instruction(small, text, backend).goal == "IsSwitchedOn_tv & ~IsSwitchedOn_microwave"
-    kept = goal_from_instruction(small, text, backend, options=InstructOptions(mend_negations=False))
-    assert kept.goal == "IsSwitchedOn_tv & IsSwitchedOn_microwave"
+@pytest.mark.parametrize(
+    ("name", "text", "reply", "read", "off"),
+    [
+        ("robothow-small", "Switch on the TV, but the microwave should not be left on.",
+         "IsSwitchedOn_tv & IsSwitchedOn_microwave", "IsSwitchedOn_tv & ~IsSwitchedOn_microwave",
+         InstructOptions(mend_negations=False)),
+        ("robowaiter", "Could you carry the chips over to table 2?", "On_Chips_Table2 & RobotNear_Bar",
+         "On_Chips_Table2", InstructOptions(drop_unsaid=False)),
+    ],
+)  # fmt: skip
+def test_a_taught_models_answer_is_read_against_its_words_before_the_checks(
+    name: str, text: str, reply: str, read: str, off: InstructOptions
+) -> None:
+    """A negation mended, a literal about the robot not asked for left out; each can be turned off."""
+    scenario = load_scenario(name)
+    assert goal_from_instruction(scenario, text, Taught(reply)).goal == read
+    assert goal_from_instruction(scenario, text, Taught(reply), options=off).goal == reply
 
 
 def test_a_literal_added_to_cover_a_named_object_is_mended_too(small: Scenario) -> None:
@@ -190,3 +211,41 @@ def test_a_part_is_read_from_the_words_file() -> None:
     assert not data.objects["mug"].part
     with pytest.raises(InputError, match="part must be true or false"):
         parse_words({"objects": {"door": {"names": ["door"], "part": "yes"}}})
+
+
+@pytest.mark.parametrize(
+    ("text", "goal", "asked"),
+    [
+        # where the robot stands or what it holds, never said, beside something about the world
+        ("A customer at the second bar wants chips; leave some there.", "On_Chips_Bar2 & RobotNear_Bar",
+         "On_Chips_Bar2"),
+        ("I'll pick something up at the bar later, so have a yogurt waiting there.",
+         "Holding_Yogurt & On_Yogurt_Bar", "On_Yogurt_Bar"),
+        ("Wipe table 2, or else bring the coffee to table 3.", "IsClean_Table2 | Holding_Coffee | On_Coffee_Table3",
+         "IsClean_Table2 | On_Coffee_Table3"),
+        # said: a deed with the object, a list that keeps its verb, "by" where it waits, a pronoun
+        ("Put the coffee on table 1 and go to the bar.", "On_Coffee_Table1 & RobotNear_Bar",
+         "On_Coffee_Table1 & RobotNear_Bar"),
+        ("Pick up the coffee and the chips and turn on the AC.", "Holding_Chips & Active_AC",
+         "Holding_Chips & Active_AC"),
+        ("Turn on the AC, then wait by table 3.", "Active_AC & RobotNear_Table3", "Active_AC & RobotNear_Table3"),
+        ("Make the coffee, then hold it.", "Exists_Coffee & Holding_Coffee", "Exists_Coffee & Holding_Coffee"),
+        # only about the robot, or negated: nothing to compare with, or said by its negation
+        ("Could you wait at the bar?", "RobotNear_Bar & Holding_Chips", "RobotNear_Bar & Holding_Chips"),
+        ("Turn on the AC and don't stay near the bar.", "Active_AC & ~RobotNear_Bar", "Active_AC & ~RobotNear_Bar"),
+    ],
+)  # fmt: skip
+def test_literals_about_the_robot_not_asked_for_are_left_out(
+    robowaiter: Scenario, text: str, goal: str, asked: str
+) -> None:
+    assert unasked_own_dropped(robowaiter, text, goal) == asked
+
+
+def test_generated_instructions_keep_their_literals_about_the_robot(
+    small: Scenario, generated: list[tuple[str, str]]
+) -> None:
+    """The verbaliser says each literal it asks for, those about the robot too ("make sure you are
+    by the fridge"): none is left out."""
+    own = [(text, goal) for text, goal in generated if "_self" in goal]
+    assert len(own) >= 20
+    assert [(text, goal) for text, goal in generated if unasked_own_dropped(small, text, goal) != goal] == []

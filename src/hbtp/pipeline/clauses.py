@@ -1,10 +1,11 @@
 """An instruction read as clauses of words, and the words that say a literal: what the checks of a
-taught model's answer (:mod:`hbtp.pipeline.polarity`, :mod:`hbtp.pipeline.strangers`) compare."""
+taught model's answer (:mod:`hbtp.pipeline.polarity`, :mod:`hbtp.pipeline.strangers`,
+:mod:`hbtp.pipeline.own_state`) compare."""
 
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 
 from hbtp.domains.scenarios import Scenario
 from hbtp.domains.words import COPULA, SLOT, Phrasing, Words
@@ -12,11 +13,15 @@ from hbtp.llm.goal_prompt import PLACEHOLDERS
 from hbtp.logic.atoms import Atom
 
 _CLAUSES = re.compile(r"[,;:.!?()\u2014\u2013\"]| - |\b(?:and|but|then|or|so|while)\b")
+_SPANS = re.compile(r"[,;:.!?()\u2014\u2013\"]| - |\b(?:but|then|so|while)\b")
 _TOKEN = re.compile(r"[a-z0-9]+(?:'[a-z]+)?")
 #: Words that only frame a state or a deed ("leave it on", "keep it shut"), left out of its words.
 _FRAMES = frozenset(("don't", "do", "not", "never", "leave", "keep", "let", "be", "have", "want"))
 #: Symbols named like particles ("on", "down") are not counted as named: in a clause they say a state.
 _PARTICLES = frozenset(("on", "off", "up", "down", "in", "out"))
+#: Words too plain to say a state or a deed on their own ("the tv is on", "bring it to the bar").
+PLAIN = frozenset(("on", "in", "to", "at", "of", "up", "off", "into", "onto", "by", "with", "from", "for", "top"))
+PRONOUNS = frozenset(("it", "them", "they"))
 
 
 def clauses(text: str) -> list[tuple[str, ...]]:
@@ -24,6 +29,21 @@ def clauses(text: str) -> list[tuple[str, ...]]:
     "while"), each as its lower-case words, apostrophes kept ("don't"); empty ones left out."""
     cut = (tokens(part) for part in _CLAUSES.split(text) if part)
     return [said for said in cut if said]
+
+
+def spans(text: str) -> list[tuple[str, ...]]:
+    """The clauses of ``text`` with their lists kept whole: cut at punctuation and at "but", "then",
+    "so", "while", not at "and" or "or" ("pick up the cup and the plate" keeps its verb)."""
+    cut = (tokens(part) for part in _SPANS.split(text) if part)
+    return [said for said in cut if said]
+
+
+def readings(named: frozenset[str], said: Sequence[str], before: frozenset[str]) -> list[frozenset[str]]:
+    """The objects words that name ``named`` may be about: those, and, when they say "it" or "them",
+    those and one of ``before`` (named in the last clause that named any)."""
+    if not PRONOUNS & set(said):
+        return [named]
+    return [named, *(named | {one} for one in sorted(before))]
 
 
 def tokens(text: str) -> tuple[str, ...]:

@@ -19,7 +19,8 @@ it lacks (:func:`hbtp.llm.goal_prompt.refusal_of`), and that is the error, unles
 cannot stand (:func:`false_refusal`: the instruction does not say the thing, or the world has an
 object called so), when the model is asked again with refusals not offered; its answer loses the
 literals about objects the instruction never names, when others are about objects it names
-(:func:`unsaid_dropped`), and a literal it wrote positive where the instruction says it negated
+(:func:`unsaid_dropped`), and its literals about the robot itself that the instruction does not ask
+for (:mod:`hbtp.pipeline.own_state`), and a literal it wrote positive where the instruction says it negated
 becomes its negation (:mod:`hbtp.pipeline.polarity`). A completion-style model's accepted
 conjunction is then extended with a literal for each object the instruction names and the goal
 leaves out (asked as a continuation of its own goal; a literal that draws an objection is dropped).
@@ -63,6 +64,7 @@ from hbtp.llm.goal_prompt import (
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
 from hbtp.pipeline.clauses import objects_of
+from hbtp.pipeline.own_state import unasked_own_dropped
 from hbtp.pipeline.polarity import negations_mended
 from hbtp.pipeline.strangers import asked_about
 from hbtp.planning.regression import stuck
@@ -83,7 +85,9 @@ class InstructOptions:
     seed: int = 0
     cover: bool = True  # extend a completion model's goal to the objects the instruction names
     #: Drop a taught model's literals about objects the instruction does not name (when it names
-    #: those of other literals of the same conjunction): :func:`unsaid_dropped`.
+    #: those of other literals of the same conjunction): :func:`unsaid_dropped`; and its literals
+    #: about the robot itself that the instruction does not say (beside literals about the world):
+    #: :func:`hbtp.pipeline.own_state.unasked_own_dropped`.
     drop_unsaid: bool = True
     #: Turn a taught model's positive literal into its negation where the instruction says it negated
     #: ("never turn the temperature down"): :func:`hbtp.pipeline.polarity.negations_mended`.
@@ -259,11 +263,14 @@ def goal_from_instruction(
 def _read_against(scenario: Scenario, text: str, proposed: str, options: InstructOptions) -> str:
     """A taught model's goal read against the words of its instruction: literals about objects it
     does not name left out (:func:`unsaid_dropped`), literals it says negated negated
-    (:func:`hbtp.pipeline.polarity.negations_mended`)."""
+    (:func:`hbtp.pipeline.polarity.negations_mended`), literals about the robot itself it does not
+    ask for left out (:func:`hbtp.pipeline.own_state.unasked_own_dropped`)."""
     if options.drop_unsaid:
         proposed = unsaid_dropped(scenario, text, proposed)
     if options.mend_negations:
         proposed = negations_mended(scenario, text, proposed)
+    if options.drop_unsaid:
+        proposed = unasked_own_dropped(scenario, text, proposed)
     return proposed
 
 

@@ -29,7 +29,7 @@ from hbtp.domains.words import Words, words_for
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
-from hbtp.pipeline.clauses import clauses, in_order, objects_of, phrasing_runs, world_objects
+from hbtp.pipeline.clauses import clauses, in_order, objects_of, phrasing_runs, readings, world_objects
 
 log = logging.getLogger(__name__)
 
@@ -45,7 +45,6 @@ _REPORTING = frozenset(("is", "are", "was", "were", "am", "be", "been", "do", "d
                         "could", "can", "would", "will", "has", "have", "had"))  # fmt: skip
 #: A bare "not" before these words sets a thing aside ("the milk, not the juice").
 _ASIDE = frozenset(("the", "a", "an", "my", "your", "this", "that", "those", "these", "any", "only", "just"))
-_PRONOUNS = frozenset(("it", "them", "they"))
 _ASKING = (("make", "sure"), ("ensure",), ("see", "to", "it"), ("see", "that"))
 #: Words after "don't" that soften a request rather than forbid a deed.
 _SOFTENERS = frozenset(("forget", "hesitate", "mind", "fail", "worry", "know", "think", "care", "need"))
@@ -85,25 +84,17 @@ def said_negated(words: Words, clauses: Sequence[tuple[str, ...]], literal: Atom
     before: frozenset[str] = frozenset()
     for said in clauses:
         named = words.named_in(" ".join(said)) & world
-        if objects not in _readings(named, said, before):
+        if objects not in readings(named, said, before):
             before = named or before
             continue
         for at, width, deed in _negations(said):
             after = said[at + width :]
-            if deed and objects not in _readings(words.named_in(" ".join(after)) & world, after, before):
+            if deed and objects not in readings(words.named_in(" ".join(after)) & world, after, before):
                 continue
             if any(in_order(run, after) for run in runs):
                 return True
         before = named or before
     return False
-
-
-def _readings(named: frozenset[str], said: Sequence[str], before: frozenset[str]) -> list[frozenset[str]]:
-    """The objects words that name ``named`` may be about: those, and, when they say "it" or "them",
-    those and one of ``before`` (named in the last clause that named any)."""
-    if not _PRONOUNS & set(said):
-        return [named]
-    return [named, *(named | {one} for one in sorted(before))]
 
 
 def _negations(said: tuple[str, ...]) -> list[tuple[int, int, bool]]:

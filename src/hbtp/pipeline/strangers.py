@@ -17,12 +17,10 @@ from __future__ import annotations
 from hbtp.domains.scenarios import Scenario
 from hbtp.domains.words import Words, words_for
 from hbtp.logic.atoms import Atom
-from hbtp.pipeline.clauses import clauses, in_order, phrasing_runs, world_objects
+from hbtp.pipeline.clauses import PLAIN, clauses, in_order, phrasing_runs, world_objects
 
 #: Words that may stand beside a thing said alone in a list ("and the box", "either the cereal").
 _ALONE = frozenset(("the", "a", "an", "my", "your", "some", "either", "both", "neither", "also", "too", "nor"))
-#: Words too plain to say a state or a deed on their own ("the tv is on", "bring it to the bar").
-_PLAIN = frozenset(("on", "in", "to", "at", "of", "up", "off", "into", "onto", "by", "with", "from", "for", "top"))
 
 
 def asked_about(scenario: Scenario, text: str) -> tuple[str, ...]:
@@ -32,7 +30,7 @@ def asked_about(scenario: Scenario, text: str) -> tuple[str, ...]:
     if not words.lacking_in(text):
         return ()
     world = world_objects(scenario)
-    runs = [run for run in _world_runs(words, scenario) if set(run) - _PLAIN]
+    runs = [run for run in _world_runs(words, scenario) if set(run) - PLAIN]
     parts = words.parts()
     said = clauses(text)
     says = [any(in_order(run, clause) for run in runs) for clause in said]
