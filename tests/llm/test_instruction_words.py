@@ -150,6 +150,21 @@ def test_a_literal_added_to_cover_a_named_object_is_mended_too(small: Scenario) 
     assert choice.goal == "IsSwitchedOn_tv & ~IsSwitchedOn_microwave"
 
 
+def test_a_literal_added_to_cover_a_named_object_is_read_as_the_first_answer(robowaiter: Scenario) -> None:
+    """ "bar" is spelled inside "the second bar", so the bar is offered; the literal the model adds
+    about it is about an object the words do not name, and is left out. A goal that repeats its one
+    alternative ("A | A") is continued as that alternative, not as its last copy."""
+    text = "Someone at the second bar wants a soft drink; could you leave one there?"
+    backend = Taught("On_Softdrink_Bar2 | On_Softdrink_Bar2", "RobotNear_Bar")
+    choice = goal_from_instruction(robowaiter, text, backend)
+    assert backend.asked == 2
+    assert choice.goal == "On_Softdrink_Bar2"
+    assert choice.attempts[-1].objections == ("RobotNear_Bar: not what the instruction says",)
+    kept = goal_from_instruction(robowaiter, text, Taught("On_Softdrink_Bar2 | On_Softdrink_Bar2", "RobotNear_Bar"),
+                                 options=InstructOptions(drop_unsaid=False))  # fmt: skip
+    assert kept.goal == "On_Softdrink_Bar2 & RobotNear_Bar"
+
+
 def test_a_mended_goal_that_holds_at_the_start_is_refused(small: Scenario) -> None:
     """The mended goal goes through the checks: the microwave is off at the start, so "it must not
     be on" alone asks for nothing."""

@@ -35,7 +35,7 @@ me the guitar"), else as about nothing the domain knows.
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import Any
@@ -241,7 +241,7 @@ def goal_from_instruction(
         proposed = goal_reply(reply.text)
         lacking = refusal_of(proposed) if taught else None
         if taught and lacking is None:
-            proposed = _read_against(scenario, text, proposed, options)
+            proposed = _read_against(scenario, text, proposed, options=options)
         verdict = _verdict(scenario, text, proposed, lacking)
         attempts.append(GoalAttempt(number, reply.text, "" if lacking else proposed, verdict.objections,
                                     verdict.doubtful, reply.seconds))  # fmt: skip
@@ -255,12 +255,12 @@ def goal_from_instruction(
             ask = partial(ask, refusal=False)
     cover = options.cover and backend.prompt_style is PromptStyle.COMPLETION
     if cover and attempts and attempts[-1].accepted:
-        mend = taught and options.mend_negations
-        spent += _cover(scenario, text, backend, request, attempts, deadline, by_words=taught, mend=mend)
+        read = partial(_read_against, scenario, text, options=options) if taught else None
+        spent += _cover(scenario, text, backend, request, attempts, deadline, by_words=taught, read=read)
     return _refused_if_substituted(scenario, _choose(text, attempts, spent), options)
 
 
-def _read_against(scenario: Scenario, text: str, proposed: str, options: InstructOptions) -> str:
+def _read_against(scenario: Scenario, text: str, proposed: str, *, options: InstructOptions) -> str:
     """A taught model's goal read against the words of its instruction: literals about objects it
     does not name left out (:func:`unsaid_dropped`), literals it says negated negated
     (:func:`hbtp.pipeline.polarity.negations_mended`), literals about the robot itself it does not
@@ -411,16 +411,18 @@ def _cover(
     attempts: list[GoalAttempt],
     deadline: Deadline | None,
     by_words: bool = False,
-    mend: bool = False,
+    read: Callable[[str], str] | None = None,
 ) -> float:
     """Extend an accepted conjunction with a literal for each object the instruction names and the
     goal leaves out (a small model stops after the first literal, a taught one may skip one of a
     long list); a literal that draws an objection is left out. Objects are named by their spelling,
-    and ``by_words`` (a taught model) also by the world's words for them; with ``mend``, a literal
-    the instruction says negated is negated (the continuation offers positive literals only:
-    :func:`hbtp.pipeline.polarity.negations_mended`). Returns the model's time."""
-    goal = attempts[-1].goal
-    terms = parse_goal(goal)
+    and ``by_words`` (a taught model) also by the world's words for them; ``read`` reads each longer
+    goal against the instruction as the model's first answer was (:func:`_read_against`: the
+    continuation offers positive literals only, so one the instruction says negated is negated; a
+    literal about the robot it does not ask for goes); a literal it leaves out is not added.
+    Returns the model's time."""
+    terms = parse_goal(attempts[-1].goal)
+    goal = format_goal(terms)  # "A | A" is one alternative: the literal joins all of it
     if len(terms) != 1 or not Connectives.licensed_by(text).conjunctions:
         return 0.0
     named, atoms = named_atoms(
@@ -439,9 +441,11 @@ def _cover(
             break
         spent += reply.seconds
         literal = goal_reply(reply.text)
-        longer = f"{goal} & {literal}" if literal else goal
-        longer = negations_mended(scenario, text, longer) if mend else longer
-        verdict = check_goal(scenario, longer) if literal else Verdict(("no literal in the reply",))
+        longer = read(f"{goal} & {literal}") if literal and read is not None else f"{goal} & {literal}"
+        if not literal or longer == goal:
+            verdict = Verdict((f"{literal}: not what the instruction says" if literal else "no literal in the reply",))
+        else:
+            verdict = check_goal(scenario, longer)
         attempts.append(
             GoalAttempt(len(attempts), reply.text, longer, verdict.objections, verdict.doubtful, reply.seconds)
         )
