@@ -77,3 +77,9 @@ def world_objects(scenario: Scenario) -> frozenset[str]:
 def objects_of(words: Words, literal: Atom) -> set[str]:
     """The objects ``literal`` is about: its arguments but the robot and placeholders."""
     return {x for x in literal.args if x.lower() not in PLACEHOLDERS and not words.noun(x).agent}
+
+
+def spoken_objects(words: Words, text: str) -> frozenset[str]:
+    """The objects ``text`` calls by one of the world's ``words`` for them or spells (the robot and
+    placeholders aside)."""
+    return frozenset(name for name in words.named_in(text) if name.lower() not in PLACEHOLDERS)

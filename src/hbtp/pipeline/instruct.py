@@ -17,7 +17,9 @@ what already holds (a goal asked for again would only drift from what was meant)
 the world may refuse itself: an instruction that names what the world lacks is answered with what
 it lacks (:func:`hbtp.llm.goal_prompt.refusal_of`), and that is the error, unless the refusal
 cannot stand (:func:`false_refusal`: the instruction does not say the thing, or the world has an
-object called so), when the model is asked again with refusals not offered; its answer loses the
+object called so), when the model is asked again with refusals not offered; in its answer, an
+object the instruction names and the goal leaves out takes the place of one it never names
+(:mod:`hbtp.pipeline.stand_ins`); the answer loses the
 literals about objects the instruction never names, when others are about objects it names
 (:func:`unsaid_dropped`), and its literals about the robot itself that the instruction does not ask
 for (:mod:`hbtp.pipeline.own_state`), and a literal it wrote positive where the instruction says it negated
@@ -47,7 +49,6 @@ from hbtp.domains.words import Words, spoken_words, words_for
 from hbtp.errors import BackendTimeLimit, InputError
 from hbtp.llm.backend import Backend, PromptStyle, Request
 from hbtp.llm.goal_prompt import (
-    PLACEHOLDERS,
     STOPWORDS,
     Connectives,
     Example,
@@ -63,9 +64,10 @@ from hbtp.llm.goal_prompt import (
 )
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
-from hbtp.pipeline.clauses import objects_of
+from hbtp.pipeline.clauses import objects_of, spoken_objects
 from hbtp.pipeline.own_state import unasked_own_dropped
 from hbtp.pipeline.polarity import negations_mended
+from hbtp.pipeline.stand_ins import named_in_place
 from hbtp.pipeline.strangers import asked_about
 from hbtp.planning.regression import stuck
 
@@ -92,6 +94,10 @@ class InstructOptions:
     #: Turn a taught model's positive literal into its negation where the instruction says it negated
     #: ("never turn the temperature down"): :func:`hbtp.pipeline.polarity.negations_mended`.
     mend_negations: bool = True
+    #: Put an object the instruction names and a taught model's goal leaves out in the place of one
+    #: it never names ("Bright table 6 ..." read as ``On_MilkDrink_Table1``):
+    #: :func:`hbtp.pipeline.stand_ins.named_in_place`.
+    place_named: bool = True
     #: Refuse a goal that puts an object the instruction never names in the place of a thing it names
     #: that the world lacks (:func:`substituted`), or drops a thing the world lacks that the
     #: instruction asks about (:func:`hbtp.pipeline.strangers.asked_about`).
@@ -261,10 +267,13 @@ def goal_from_instruction(
 
 
 def _read_against(scenario: Scenario, text: str, proposed: str, *, options: InstructOptions) -> str:
-    """A taught model's goal read against the words of its instruction: literals about objects it
+    """A taught model's goal read against the words of its instruction: objects it names put in the
+    place of others (:func:`hbtp.pipeline.stand_ins.named_in_place`), literals about objects it
     does not name left out (:func:`unsaid_dropped`), literals it says negated negated
     (:func:`hbtp.pipeline.polarity.negations_mended`), literals about the robot itself it does not
     ask for left out (:func:`hbtp.pipeline.own_state.unasked_own_dropped`)."""
+    if options.place_named:
+        proposed = named_in_place(scenario, text, proposed)
     if options.drop_unsaid:
         proposed = unsaid_dropped(scenario, text, proposed)
     if options.mend_negations:
@@ -307,7 +316,7 @@ def substituted(scenario: Scenario, text: str, goal: str) -> str:
     if not strangers:
         return ""
     objects = {x for term in parse_goal(goal) for atom in term for x in objects_of(words, atom)}
-    return " and ".join(strangers) if objects - _spoken_objects(words, text) else ""
+    return " and ".join(strangers) if objects - spoken_objects(words, text) else ""
 
 
 def lacks(scenario: Scenario, things: str) -> str:
@@ -359,7 +368,7 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
     except InputError:
         return goal
     words = words_for(scenario)
-    spoken = _spoken_objects(words, text)
+    spoken = spoken_objects(words, text)
     strict = not words.lacking_in(text)
     kept, dropped = [], []
     for term in terms:
@@ -397,12 +406,6 @@ def _twin(words: Words, literal: Atom, term: Sequence[Atom], spoken: frozenset[s
     return False
 
 
-def _spoken_objects(words: Words, text: str) -> frozenset[str]:
-    """The objects ``text`` calls by one of the world's ``words`` for them or spells (the robot and
-    placeholders aside)."""
-    return frozenset(name for name in words.named_in(text) if name.lower() not in PLACEHOLDERS)
-
-
 def _cover(
     scenario: Scenario,
     text: str,
@@ -426,7 +429,7 @@ def _cover(
     if len(terms) != 1 or not Connectives.licensed_by(text).conjunctions:
         return 0.0
     named, atoms = named_atoms(
-        scenario.task, text, _spoken_objects(words_for(scenario), text) if by_words else frozenset()
+        scenario.task, text, spoken_objects(words_for(scenario), text) if by_words else frozenset()
     )
     spent = 0.0
     for missing in sorted(named):
