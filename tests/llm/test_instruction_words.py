@@ -20,7 +20,7 @@ from hbtp.pipeline.instruct import InstructOptions, goal_from_instruction
 from hbtp.pipeline.own_state import unasked_own_dropped
 from hbtp.pipeline.polarity import negations_mended
 from hbtp.pipeline.stand_ins import named_in_place
-from hbtp.pipeline.strangers import asked_about
+from hbtp.pipeline.strangers import asked_about, asked_beside
 from hbtp.train.example_set import make_examples
 from hbtp.train.examples import ExampleKind
 
@@ -319,3 +319,42 @@ def test_generated_instructions_get_a_misread_object_back(small: Scenario, gener
         back += named_in_place(small, text, swapped) == format_goal(terms)
     assert misread >= 50
     assert back >= 0.9 * misread
+
+
+@pytest.mark.parametrize(
+    ("text", "goal", "asked"),
+    [
+        # listed with an object the goal is about: before it, after it
+        ("Put the guitar and the apple in the fridge.", "IsIn_apple_fridge", ("guitar",)),
+        ("Put the apple, the plate and the guitar on the kitchen table.",
+         "IsOn_apple_kitchentable & IsOn_plate_kitchentable", ("guitar",)),
+        # its clause says a deed of the world, and no literal is about that clause's objects alone
+        ("Open the fridge and put the guitar on the kitchen table.", "IsOpen_fridge & IsOn_apple_kitchentable",
+         ("guitar",)),
+        # named beside what is asked; no thing the world lacks; a thing the world lacks said aside
+        ("Put the apple on the kitchen table next to the guitar.", "IsOn_apple_kitchentable", ()),
+        ("Put the apple and the plate in the fridge.", "IsIn_apple_fridge", ()),
+        ("Put the apple in the fridge, the guitar stays where it is.", "IsIn_apple_fridge", ()),
+    ],
+)  # fmt: skip
+def test_things_the_world_lacks_asked_about_beside_the_goal(
+    small: Scenario, text: str, goal: str, asked: tuple[str, ...]
+) -> None:
+    assert asked_beside(small, text, parse_goal(goal)) == asked
+
+
+def test_a_goal_that_leaves_out_a_thing_listed_with_its_objects_is_refused(small: Scenario) -> None:
+    choice = goal_from_instruction(small, "Put the guitar and the apple in the fridge.", Taught("IsIn_apple_fridge"))
+    assert choice.goal is None
+    assert choice.lacking == "guitar"
+    kept = goal_from_instruction(
+        small, "Put the guitar and the apple in the fridge.", Taught("IsIn_apple_fridge"),
+        options=InstructOptions(refuse_lacking=False),
+    )  # fmt: skip
+    assert kept.goal == "IsIn_apple_fridge"
+
+
+def test_generated_instructions_about_the_world_are_not_refused(
+    small: Scenario, generated: list[tuple[str, str]]
+) -> None:
+    assert [(text, goal) for text, goal in generated if asked_beside(small, text, parse_goal(goal))] == []

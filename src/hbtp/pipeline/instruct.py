@@ -68,7 +68,7 @@ from hbtp.pipeline.clauses import objects_of, spoken_objects
 from hbtp.pipeline.own_state import unasked_own_dropped
 from hbtp.pipeline.polarity import negations_mended
 from hbtp.pipeline.stand_ins import named_in_place
-from hbtp.pipeline.strangers import asked_about
+from hbtp.pipeline.strangers import asked_about, asked_beside
 from hbtp.planning.regression import stuck
 
 log = logging.getLogger(__name__)
@@ -302,6 +302,8 @@ def _refused_if_substituted(scenario: Scenario, choice: GoalChoice, options: Ins
         return choice
     strangers = substituted(scenario, choice.instruction, choice.goal) if choice.goal is not None else ""
     strangers = strangers or " and ".join(asked_about(scenario, choice.instruction))
+    if choice.goal is not None and not strangers:
+        strangers = " and ".join(asked_beside(scenario, choice.instruction, parse_goal(choice.goal)))
     return replace(choice, goal=None, message=lacks(scenario, strangers), lacking=strangers) if strangers else choice
 
 
