@@ -83,3 +83,19 @@ def spoken_objects(words: Words, text: str) -> frozenset[str]:
     """The objects ``text`` calls by one of the world's ``words`` for them or spells (the robot and
     placeholders aside)."""
     return frozenset(name for name in words.named_in(text) if name.lower() not in PLACEHOLDERS)
+
+
+def has_twin(words: Words, literal: Atom, term: Sequence[Atom], spoken: frozenset[str]) -> bool:
+    """Whether another literal of ``term`` is ``literal`` but for one argument, which ``spoken`` holds
+    there and not in ``literal`` (``On_Juice_Table1`` beside ``On_Juice_Table2``, table 2 named)."""
+    for at, arg in enumerate(literal.args):
+        if arg in spoken or arg not in objects_of(words, literal):
+            continue
+        kind = (literal.predicate, literal.negated, len(literal.args))
+        rest = literal.args[:at] + literal.args[at + 1 :]
+        for other in term:
+            if (other.predicate, other.negated, len(other.args)) != kind or other.args[at] not in spoken:
+                continue
+            if other.args[:at] + other.args[at + 1 :] == rest:
+                return True
+    return False

@@ -45,7 +45,7 @@ from typing import Any
 from hbtp.datasets.instructions import load_instructions
 from hbtp.deadline import Deadline, expired
 from hbtp.domains.scenarios import Scenario
-from hbtp.domains.words import Words, spoken_words, words_for
+from hbtp.domains.words import spoken_words, words_for
 from hbtp.errors import BackendTimeLimit, InputError
 from hbtp.llm.backend import Backend, PromptStyle, Request
 from hbtp.llm.goal_prompt import (
@@ -64,7 +64,7 @@ from hbtp.llm.goal_prompt import (
 )
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
-from hbtp.pipeline.clauses import objects_of, spoken_objects
+from hbtp.pipeline.clauses import has_twin, objects_of, spoken_objects
 from hbtp.pipeline.own_state import unasked_own_dropped
 from hbtp.pipeline.polarity import negations_mended
 from hbtp.pipeline.stand_ins import named_in_place
@@ -357,12 +357,13 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
     conjunction that also has literals about objects it does name (by the world's words for them or
     their spelling, :meth:`hbtp.domains.words.Words.named_in`), and without the literals that repeat
     another of their conjunction but for one object, which the instruction does not name where the
-    other's is named (:func:`_twin`). A taught model that has written the literal asked for tends
-    to go on with one more ("switch on the AC": ``Active_AC & IsClean_Chairs``; "wipe the fridge":
-    ``IsClean_fridge & IsIn_rag_fridge``; "bring the juice to table 2": ``On_Juice_Table2 &
-    On_Juice_Table1``). Where the instruction names a thing the world lacks, a literal is kept when
-    it names one of its objects, and twins are kept: either may stand in for that thing ("put the
-    bread and the pancake in the fridge": ``IsIn_breadslice_fridge & IsIn_chips_fridge``), which
+    other's is named (:func:`hbtp.pipeline.clauses.has_twin`). A taught model that has written the
+    literal asked for tends to go on with one more ("switch on the AC": ``Active_AC &
+    IsClean_Chairs``; "wipe the fridge": ``IsClean_fridge & IsIn_rag_fridge``; "bring the juice to
+    table 2": ``On_Juice_Table2 & On_Juice_Table1``). Where the instruction names a thing the world
+    lacks, a literal is kept when it names one of its objects, and twins are kept: either may stand
+    in for that thing ("put the bread and the pancake in the fridge": ``IsIn_breadslice_fridge &
+    IsIn_chips_fridge``), which
     :func:`substituted` refuses. A literal with no object but the robot or a placeholder is kept; a
     goal that does not parse is returned as it is, for the checks to refuse."""
     try:
@@ -375,7 +376,7 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
     kept, dropped = [], []
     for term in terms:
         said = [literal for literal in term if _said(objects_of(words, literal), spoken, strict)]
-        said = [literal for literal in said if not (strict and _twin(words, literal, term, spoken))]
+        said = [literal for literal in said if not (strict and has_twin(words, literal, term, spoken))]
         if any(objects_of(words, literal) for literal in said) and len(said) < len(term):
             dropped += [literal.underscored for literal in term if literal not in said]
             term = tuple(said)
@@ -390,22 +391,6 @@ def _said(about: set[str], spoken: frozenset[str], strict: bool) -> bool:
     """Whether a literal about the objects ``about`` is said by an instruction that names
     ``spoken``: all of them (``strict``) or one, or it is about no object."""
     return not about or (about <= spoken if strict else bool(about & spoken))
-
-
-def _twin(words: Words, literal: Atom, term: Sequence[Atom], spoken: frozenset[str]) -> bool:
-    """Whether another literal of ``term`` is ``literal`` but for one argument, which ``spoken`` holds
-    there and not in ``literal`` (``On_Juice_Table1`` beside ``On_Juice_Table2``, table 2 named)."""
-    for at, arg in enumerate(literal.args):
-        if arg in spoken or arg not in objects_of(words, literal):
-            continue
-        kind = (literal.predicate, literal.negated, len(literal.args))
-        rest = literal.args[:at] + literal.args[at + 1 :]
-        for other in term:
-            if (other.predicate, other.negated, len(other.args)) != kind or other.args[at] not in spoken:
-                continue
-            if other.args[:at] + other.args[at + 1 :] == rest:
-                return True
-    return False
 
 
 def _cover(

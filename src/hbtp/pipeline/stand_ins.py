@@ -8,9 +8,12 @@ words for it or its spelling, :func:`hbtp.pipeline.clauses.spoken_objects`) take
 object the instruction names and the goal leaves out, when exactly one such object makes it a
 literal of the world (``On_MilkDrink_BrightTable6``; "put the milk in the fridge or on the kitchen
 table" read as ``IsIn_milk_kitchencabinet | IsOn_milk_fryingpan`` becomes ``IsIn_milk_fridge |
-IsOn_milk_kitchentable``); an object placed is not placed again. Where the instruction names a
-thing the world lacks, an unnamed object may stand in for it, and the goal is left for the
-substitution check (:func:`hbtp.pipeline.instruct.substituted`).
+IsOn_milk_kitchentable``); an object placed is not placed again. A literal that repeats another of
+its conjunction but for that object, named in the other (``IsOn_towel_cabinet`` beside
+``IsOn_crayons_cabinet``: :func:`hbtp.pipeline.clauses.has_twin`), is one more item of a list the
+model went on with, not a misread: it is left for the check of unsaid literals, which drops it.
+Where the instruction names a thing the world lacks, an unnamed object may stand in for it, and the
+goal is left for the substitution check (:func:`hbtp.pipeline.instruct.substituted`).
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from hbtp.domains.words import Words, words_for
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
-from hbtp.pipeline.clauses import objects_of, spoken_objects
+from hbtp.pipeline.clauses import has_twin, objects_of, spoken_objects
 
 log = logging.getLogger(__name__)
 
@@ -45,7 +48,8 @@ def named_in_place(scenario: Scenario, text: str, goal: str) -> str:
     for term in terms:
         new = []
         for literal in term:
-            better = _in_place(scenario, words, literal, spoken, unused) if unused else None
+            extra = has_twin(words, literal, term, spoken)  # one more of a list: left for the unsaid check
+            better = _in_place(scenario, words, literal, spoken, unused) if unused and not extra else None
             if better is not None:
                 placed.append(f"{literal.underscored} -> {better.underscored}")
                 unused = [x for x in unused if x not in better.args]
