@@ -431,7 +431,9 @@ def _cover(
             break
         spent += reply.seconds
         literal = goal_reply(reply.text)
-        longer = read(f"{goal} & {literal}") if literal and read is not None else f"{goal} & {literal}"
+        longer = f"{goal} & {literal}" if literal else goal
+        if literal and read is not None:
+            longer = read(longer)
         if not literal or longer == goal:
             verdict = Verdict((f"{literal}: not what the instruction says" if literal else "no literal in the reply",))
         else:
