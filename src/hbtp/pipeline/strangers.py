@@ -41,7 +41,7 @@ def asked_about(scenario: Scenario, text: str) -> tuple[str, ...]:
     if not words.lacking_in(text):
         return ()
     world = world_objects(scenario)
-    runs = [run for run in _world_runs(words, scenario) if set(run) - PLAIN]
+    runs = _saying_runs(words, scenario)
     parts = words.parts()
     said = clauses(text)
     says = [any(in_order(run, clause) for run in runs) for clause in said]
@@ -65,14 +65,14 @@ def asked_beside(scenario: Scenario, text: str, goal: Sequence[Sequence[Atom]]) 
         return ()
     world = world_objects(scenario)
     about = [objects_of(words, literal) for term in goal for literal in term]
-    runs = [run for run in _world_runs(words, scenario) if set(run) - PLAIN]
+    runs = _saying_runs(words, scenario)
     said = clauses(text)
     found: list[str] = []
     for at, clause in enumerate(said):
         named = words.named_in(" ".join(clause)) & world
+        unsaid = bool(named) and any(in_order(run, clause) for run in runs)
         for thing in _strangers(words, world, clause):
             mates = _listed_with(words, world, said, at, tuple(thing.split()))
-            unsaid = bool(named) and any(in_order(run, clause) for run in runs)
             if any(mates & objects for objects in about) or (unsaid and not any(o and o <= named for o in about)):
                 found.append(thing)
     return tuple(dict.fromkeys(found))
@@ -128,6 +128,11 @@ def _called(words: Words, name: str, run: tuple[str, ...]) -> bool:
         if run in (said, (*said[:-1], said[-1] + "s"), (*said[:-1], said[-1] + "es")):
             return True
     return False
+
+
+def _saying_runs(words: Words, scenario: Scenario) -> list[tuple[str, ...]]:
+    """The words of the world's predicates that say a state or a deed on their own (not "on", "at")."""
+    return [run for run in _world_runs(words, scenario) if set(run) - PLAIN]
 
 
 def _world_runs(words: Words, scenario: Scenario) -> list[tuple[str, ...]]:
