@@ -43,17 +43,20 @@ _DETERMINERS = frozenset(("the", "a", "an", "my", "your", "our", "his", "her", "
 @dataclass(frozen=True)
 class Phrasing:
     """How a literal is said: imperatives making it true (``say``), facts "SUBJECT is COMPLEMENT"
-    (``state``, at least one) and negative imperatives for its negation (``deny``); ``{0}``, ``{1}``
+    (``state``, at least one), negative imperatives for its negation (``deny``) and imperatives that
+    make it false with no negation word, its one object last (``undo``: "leave {0}"); ``{0}``, ``{1}``
     are the arguments. ``derived``: made up from the PDDL name, not read from the data."""
 
     say: tuple[str, ...]
     state: tuple[str, ...]
     deny: tuple[str, ...] = ()
     derived: bool = False
+    undo: tuple[str, ...] = ()
 
     def fits(self, arity: int) -> bool:
         """Whether every placeholder names one of ``arity`` arguments."""
-        slots = [int(m.group(2)) for text in (*self.say, *self.state, *self.deny) for m in SLOT.finditer(text)]
+        texts = (*self.say, *self.state, *self.deny, *self.undo)
+        slots = [int(m.group(2)) for text in texts for m in SLOT.finditer(text)]
         return all(slot < arity for slot in slots)
 
 
@@ -132,6 +135,11 @@ class Words:
         and 2" names ``Table2`` too). The longest names are read first, and
         words read as one name are not read again as part of another ("the AD calcium milk" names
         ``ADMilk``, not ``Milk`` too)."""
+        return frozenset(name for _, _, name in self.named_at(text))
+
+    def named_at(self, text: str) -> tuple[tuple[int, int, str], ...]:
+        """Where ``text`` names each object of :meth:`named_in`: (first word, words, object) over
+        its :func:`spoken_words`, in the order said."""
         said = spoken_words(text)
         spoken = {
             words: name
@@ -140,19 +148,19 @@ class Words:
             for words in {spoken_words(spoken) for spoken in noun.names}
         }
         found = [(start, len(words), name) for words, name in spoken.items() for start in _starts(words, said)]
-        found += _listed(said, found, spoken)
+        found += _listed(said, found, spoken, _breaks(text))
         spelled = {spelling(name): name for name, noun in self.objects.items() if not noun.agent}
         found += [
             (start, width, name) for start in range(len(said)) for width, name in spelled_at(said, start, spelled)
         ]
         taken: set[int] = set()
-        named: set[str] = set()
+        named: list[tuple[int, int, str]] = []
         for start, width, name in sorted(found, key=lambda m: (-m[1], m[0], m[2])):
             span = set(range(start, start + width))
             if not span & taken:
                 taken |= span
-                named.add(name)
-        return frozenset(named)
+                named.append((start, width, name))
+        return tuple(sorted(named))
 
     def foreign(self) -> list[str]:
         """Things of the words file (nouns said with "the") that this world lacks, and whose names
@@ -197,23 +205,27 @@ class Words:
 
 
 def _listed(
-    said: tuple[str, ...], found: Sequence[tuple[int, int, str]], spoken: Mapping[tuple[str, ...], str]
+    said: tuple[str, ...],
+    found: Sequence[tuple[int, int, str]],
+    spoken: Mapping[tuple[str, ...], str],
+    breaks: frozenset[int] = frozenset(),
 ) -> list[tuple[int, int, str]]:
     """The objects named by the numbers listed after a numbered name ("tables 1 and 2", "table one,
     two or three"): each number (one word) with the name's other words names an object of
     ``spoken`` (words -> object), as (where, 1, object); not a number that counts the object named
-    next ("table 1 and 2 yogurts")."""
+    next ("table 1 and 2 yogurts"), which no punctuation or determiner parts from it (the
+    :func:`_breaks` of the text: "tables 1 and 2; a coffee" names table 2)."""
     listed = []
     starts = {start for start, _, _ in found}
     for start, width, _ in found:
         end = start + width
-        if not _is_number(said[end - 1]):
+        if not is_number(said[end - 1]):
             continue
         stems = {words[:-1] for words in spoken if len(words) == width and _plural_run(said[start:end], words)}
         at = end
-        while at < len(said) and (said[at] in ("and", "or") or _is_number(said[at])):
+        while at < len(said) and (said[at] in ("and", "or") or is_number(said[at])):
             named = [spoken.get((*stem, said[at])) for stem in stems]
-            if said[at] not in ("and", "or") and (not any(named) or at + 1 in starts):
+            if said[at] not in ("and", "or") and (not any(named) or (at + 1 in starts and at + 1 not in breaks)):
                 break
             listed += [(at, 1, name) for name in named if name is not None]
             at += 1
@@ -227,7 +239,7 @@ def _plural_run(said: Sequence[str], run: tuple[str, ...]) -> bool:
     return all(word in (name, name + "s", name + "es") for name, word in zip(run, said, strict=True))
 
 
-def _is_number(word: str) -> bool:
+def is_number(word: str) -> bool:
     """Whether ``word`` is a number, in digits or words up to twenty."""
     return word.isdigit() or word in _NUMBERS
 
@@ -238,6 +250,19 @@ def _says(words: Sequence[str], run: tuple[str, ...]) -> bool:
         return False
     last, said = run[-1], words[-1]
     return said in (last, last + "s", last + "es")
+
+
+def _breaks(text: str) -> frozenset[int]:
+    """The places in the :func:`spoken_words` of ``text`` that punctuation or a determiner left out
+    comes before ("2; a coffee": the coffee's)."""
+    breaks: set[int] = set()
+    count = 0
+    for token in re.findall(r"[a-z0-9]+|[^\sa-z0-9]", text.lower()):
+        if token.isalnum() and token not in _DETERMINERS:
+            count += 1
+        elif token not in ("'", "-"):
+            breaks.add(count)
+    return frozenset(breaks)
 
 
 def spoken_words(text: str) -> tuple[str, ...]:
@@ -316,10 +341,12 @@ def _strings(where: str, value: Any) -> tuple[str, ...]:
 
 def _read_phrasing(where: str, value: Any) -> Phrasing:
     """A predicate's (or literal's) table, checked: facts are "SUBJECT is COMPLEMENT" (the glue
-    frames need the copula) and every ``deny`` holds a negation (never the opposite predicate)."""
-    if not isinstance(value, dict) or not set(value) <= {"say", "state", "deny"}:
-        raise InputError(f"{where}: expected a table of say, state and deny")
-    say, state, deny = (_strings(f"{where}.{key}", value.get(key, [])) for key in ("say", "state", "deny"))
+    frames need the copula), every ``deny`` holds a negation (never the opposite predicate) and
+    every ``undo`` none, with one placeholder, last."""
+    if not isinstance(value, dict) or not set(value) <= {"say", "state", "deny", "undo"}:
+        raise InputError(f"{where}: expected a table of say, state, deny and undo")
+    keys = ("say", "state", "deny", "undo")
+    say, state, deny, undo = (_strings(f"{where}.{key}", value.get(key, [])) for key in keys)
     if not state:
         raise InputError(f'{where}: needs at least one state ("{{0}} is ...")')
     for text in state:
@@ -328,7 +355,11 @@ def _read_phrasing(where: str, value: Any) -> Phrasing:
     for text in deny:
         if not NEGATION.search(text):
             raise InputError(f"{where}.deny: {text!r} holds no negation (not, n't, never, no)")
-    return Phrasing(say, state, deny)
+    for text in undo:
+        slots = list(SLOT.finditer(text))
+        if NEGATION.search(text) or len(slots) != 1 or text[slots[0].end() :].strip():
+            raise InputError(f"{where}.undo: {text!r} must say a deed with no negation, its one object last")
+    return Phrasing(say, state, deny, undo=undo)
 
 
 _FLAGS = ("plural", "article", "agent", "part")
@@ -435,6 +466,7 @@ __all__ = [
     "Phrasing",
     "Words",
     "WordsData",
+    "is_number",
     "noun_of",
     "parse_words",
     "phrasing_of",
