@@ -12,8 +12,12 @@ from hbtp.domains.words import COPULA, SLOT, Phrasing, Words
 from hbtp.llm.goal_prompt import PLACEHOLDERS
 from hbtp.logic.atoms import Atom
 
-_CLAUSES = re.compile(r"[,;:.!?()\u2014\u2013\"]| - |\b(?:and|but|then|or|so|while)\b")
-_SPANS = re.compile(r"[,;:.!?()\u2014\u2013\"]| - |\b(?:but|then|so|while)\b")
+_PUNCTUATION = r"[,;:.!?()\u2014\u2013\"]| - "
+_CLAUSES = re.compile(_PUNCTUATION + r"|\b(?:and|but|then|or|so|while)\b")
+_SPANS = re.compile(_PUNCTUATION + r"|\b(?:but|then|so|while)\b")
+_PARTS = re.compile(_PUNCTUATION)
+#: A part that starts with "not" and one of these sets its things aside ("..., not the juice").
+_ARTICLES = frozenset(("the", "a", "an", "any", "my", "your"))
 _TOKEN = re.compile(r"[a-z0-9]+(?:'[a-z]+)?")
 #: Words that only frame a state or a deed ("leave it on", "keep it shut"), left out of its words.
 _FRAMES = frozenset(("don't", "do", "not", "never", "leave", "keep", "let", "be", "have", "want"))
@@ -81,8 +85,14 @@ def objects_of(words: Words, literal: Atom) -> set[str]:
 
 def spoken_objects(words: Words, text: str) -> frozenset[str]:
     """The objects ``text`` calls by one of the world's ``words`` for them or spells (the robot and
-    placeholders aside)."""
-    return frozenset(name for name in words.named_in(text) if name.lower() not in PLACEHOLDERS)
+    placeholders aside), but those it names only to set them aside: in a part between punctuation
+    that starts with "not" and an article ("the plain milk, not the AD milk or the milk drink")."""
+    named: set[str] = set()
+    aside: set[str] = set()
+    for part in _PARTS.split(text):
+        said = tokens(part)
+        (aside if said[:1] == ("not",) and said[1:2] and said[1] in _ARTICLES else named).update(words.named_in(part))
+    return frozenset(name for name in named | (words.named_in(text) - aside) if name.lower() not in PLACEHOLDERS)
 
 
 def has_twin(words: Words, literal: Atom, term: Sequence[Atom], spoken: frozenset[str]) -> bool:

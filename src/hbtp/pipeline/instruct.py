@@ -23,7 +23,9 @@ object the instruction names and the goal leaves out takes the place of one it n
 literals about objects the instruction never names, when others are about objects it names
 (:func:`unsaid_dropped`), and its literals about the robot itself that the instruction does not ask
 for (:mod:`hbtp.pipeline.own_state`), and a literal it wrote positive where the instruction says it negated
-becomes its negation (:mod:`hbtp.pipeline.polarity`). A completion-style model's accepted
+becomes its negation (:mod:`hbtp.pipeline.polarity`), as does one it says undone ("leave the bar",
+:mod:`hbtp.pipeline.undone`), and its alternatives are grouped as the
+instruction joins their objects (:mod:`hbtp.pipeline.grouping`). A completion-style model's accepted
 conjunction is then extended with a literal for each object the instruction names and the goal
 leaves out (asked as a continuation of its own goal; a literal that draws an objection is dropped).
 A goal is refused when it stands in for a thing the instruction names that the world lacks
@@ -45,7 +47,7 @@ from typing import Any
 from hbtp.datasets.instructions import load_instructions
 from hbtp.deadline import Deadline, expired
 from hbtp.domains.scenarios import Scenario
-from hbtp.domains.words import spoken_words, words_for
+from hbtp.domains.words import Words, spoken_words, words_for
 from hbtp.errors import BackendTimeLimit, InputError
 from hbtp.llm.backend import Backend, PromptStyle, Request
 from hbtp.llm.goal_prompt import (
@@ -65,10 +67,12 @@ from hbtp.llm.goal_prompt import (
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
 from hbtp.pipeline.clauses import has_twin, objects_of, spoken_objects
+from hbtp.pipeline.grouping import regrouped
 from hbtp.pipeline.own_state import unasked_own_dropped
 from hbtp.pipeline.polarity import negations_mended
 from hbtp.pipeline.stand_ins import named_in_place
 from hbtp.pipeline.strangers import asked_about, asked_beside
+from hbtp.pipeline.undone import undone_added
 from hbtp.planning.regression import stuck
 
 log = logging.getLogger(__name__)
@@ -92,12 +96,16 @@ class InstructOptions:
     #: :func:`hbtp.pipeline.own_state.unasked_own_dropped`.
     drop_unsaid: bool = True
     #: Turn a taught model's positive literal into its negation where the instruction says it negated
-    #: ("never turn the temperature down"): :func:`hbtp.pipeline.polarity.negations_mended`.
+    #: ("never turn the temperature down"): :func:`hbtp.pipeline.polarity.negations_mended`; and add
+    #: the negation of a literal it says undone ("leave the bar"): :func:`hbtp.pipeline.undone.undone_added`.
     mend_negations: bool = True
     #: Put an object the instruction names and a taught model's goal leaves out in the place of one
     #: it never names ("Bright table 6 ..." read as ``On_MilkDrink_Table1``):
     #: :func:`hbtp.pipeline.stand_ins.named_in_place`.
     place_named: bool = True
+    #: Group a taught model's alternatives as the instruction joins their objects ("the juice or a
+    #: soft drink" read with ``&``): :func:`hbtp.pipeline.grouping.regrouped`.
+    group_as_said: bool = True
     #: Refuse a goal that puts an object the instruction never names in the place of a thing it names
     #: that the world lacks (:func:`substituted`), or drops a thing the world lacks that the
     #: instruction asks about (:func:`hbtp.pipeline.strangers.asked_about`).
@@ -270,16 +278,20 @@ def _read_against(scenario: Scenario, text: str, proposed: str, *, options: Inst
     """A taught model's goal read against the words of its instruction: objects it names put in the
     place of others (:func:`hbtp.pipeline.stand_ins.named_in_place`), literals about objects it
     does not name left out (:func:`unsaid_dropped`), literals it says negated negated
-    (:func:`hbtp.pipeline.polarity.negations_mended`), literals about the robot itself it does not
-    ask for left out (:func:`hbtp.pipeline.own_state.unasked_own_dropped`)."""
+    (:func:`hbtp.pipeline.polarity.negations_mended`) and those it says undone added negated
+    (:func:`hbtp.pipeline.undone.undone_added`), literals about the robot itself it does not
+    ask for left out (:func:`hbtp.pipeline.own_state.unasked_own_dropped`), alternatives grouped as
+    it joins their objects (:func:`hbtp.pipeline.grouping.regrouped`)."""
     if options.place_named:
         proposed = named_in_place(scenario, text, proposed)
     if options.drop_unsaid:
         proposed = unsaid_dropped(scenario, text, proposed)
     if options.mend_negations:
-        proposed = negations_mended(scenario, text, proposed)
+        proposed = undone_added(scenario, text, negations_mended(scenario, text, proposed))
     if options.drop_unsaid:
         proposed = unasked_own_dropped(scenario, text, proposed)
+    if options.group_as_said:
+        proposed = regrouped(scenario, text, proposed)
     return proposed
 
 
@@ -357,7 +369,9 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
     conjunction that also has literals about objects it does name (by the world's words for them or
     their spelling, :meth:`hbtp.domains.words.Words.named_in`), and without the literals that repeat
     another of their conjunction but for one object, which the instruction does not name where the
-    other's is named (:func:`hbtp.pipeline.clauses.has_twin`). A taught model that has written the
+    other's is named (:func:`hbtp.pipeline.clauses.has_twin`); an alternative about objects, none
+    of whose literals is said so, goes when another is left ("a coffee or a water": ``Exists_Coffee |
+    Exists_Water | ~On_Coffee_WaterStation``). A taught model that has written the
     literal asked for tends to go on with one more ("switch on the AC": ``Active_AC &
     IsClean_Chairs``; "wipe the fridge": ``IsClean_fridge & IsIn_rag_fridge``; "bring the juice to
     table 2": ``On_Juice_Table2 & On_Juice_Table1``). Where the instruction names a thing the world
@@ -381,10 +395,21 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
             dropped += [literal.underscored for literal in term if literal not in said]
             term = tuple(said)
         kept.append(term)
+    unsaid = [term for term in kept if _unsaid(words, term, spoken, strict)]
+    if unsaid and len(unsaid) < len(kept):
+        dropped += [format_goal([term]) for term in unsaid]
+        kept = [term for term in kept if term not in unsaid]
     if not dropped:
         return goal
     log.info("instruction: left out %s (about objects the instruction does not name)", ", ".join(dropped))
     return format_goal(kept)
+
+
+def _unsaid(words: Words, term: Sequence[Atom], spoken: frozenset[str], strict: bool) -> bool:
+    """Whether ``term`` is about objects and none of its literals is said by an instruction that
+    names ``spoken``."""
+    about = [objects_of(words, literal) for literal in term]
+    return any(about) and not any(objects and _said(objects, spoken, strict) for objects in about)
 
 
 def _said(about: set[str], spoken: frozenset[str], strict: bool) -> bool:

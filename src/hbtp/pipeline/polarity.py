@@ -15,7 +15,8 @@ A small model under a grammar writes the literal an instruction talks about, and
 
 A negation that reports a state ("the microwave isn't plugged in, could you plug it in?"), softens
 a request ("don't forget to switch on the TV") or sets things aside ("the plain milk, not the AD
-milk") does not govern the literal. Such a literal becomes its negation (:func:`negations_mended`);
+milk") does not govern the literal, nor does a "not" that is part of a name ("the
+not-from-concentrate juice"). Such a literal becomes its negation (:func:`negations_mended`);
 the checks then judge the goal as they judge any other (one that now holds at the start is refused).
 """
 
@@ -29,7 +30,7 @@ from hbtp.domains.words import Words, words_for
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
-from hbtp.pipeline.clauses import clauses, in_order, objects_of, phrasing_runs, readings, world_objects
+from hbtp.pipeline.clauses import clauses, in_order, objects_of, phrasing_runs, readings, tokens, world_objects
 
 log = logging.getLogger(__name__)
 
@@ -87,7 +88,10 @@ def said_negated(words: Words, clauses: Sequence[tuple[str, ...]], literal: Atom
         if objects not in readings(named, said, before):
             before = named or before
             continue
+        inside = _in_names(words, said, named)
         for at, width, deed in _negations(said):
+            if at in inside:  # "the not-from-concentrate juice" names a thing
+                continue
             after = said[at + width :]
             if deed and objects not in readings(words.named_in(" ".join(after)) & world, after, before):
                 continue
@@ -95,6 +99,19 @@ def said_negated(words: Words, clauses: Sequence[tuple[str, ...]], literal: Atom
                 return True
         before = named or before
     return False
+
+
+def _in_names(words: Words, said: tuple[str, ...], named: frozenset[str]) -> set[int]:
+    """The places in ``said`` of the words of a name of the objects ``named``."""
+    inside: set[int] = set()
+    for name in named:
+        for spoken in words.noun(name).names:
+            run = tokens(spoken)
+            run = run[1:] if run[:1] in (("the",), ("a",), ("an",)) else run
+            inside.update(
+                at + i for at in range(len(said) - len(run) + 1) if _at(said, at, run) for i in range(len(run))
+            )
+    return inside
 
 
 def _negations(said: tuple[str, ...]) -> list[tuple[int, int, bool]]:
