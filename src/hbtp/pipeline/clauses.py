@@ -95,17 +95,22 @@ def spoken_objects(words: Words, text: str) -> frozenset[str]:
     return frozenset(name for name in named | (words.named_in(text) - aside) if name.lower() not in PLACEHOLDERS)
 
 
+def twin_at(literal: Atom, other: Atom) -> int | None:
+    """The one place where ``other`` is ``literal`` but for its argument (same predicate, sign and
+    arity, every other argument the same), or ``None``."""
+    if (literal.predicate, literal.negated, len(literal.args)) != (other.predicate, other.negated, len(other.args)):
+        return None
+    differ = [at for at, (x, y) in enumerate(zip(literal.args, other.args, strict=True)) if x != y]
+    return differ[0] if len(differ) == 1 else None
+
+
 def has_twin(words: Words, literal: Atom, term: Sequence[Atom], spoken: frozenset[str]) -> bool:
-    """Whether another literal of ``term`` is ``literal`` but for one argument, which ``spoken`` holds
-    there and not in ``literal`` (``On_Juice_Table1`` beside ``On_Juice_Table2``, table 2 named)."""
-    for at, arg in enumerate(literal.args):
-        if arg in spoken or arg not in objects_of(words, literal):
-            continue
-        kind = (literal.predicate, literal.negated, len(literal.args))
-        rest = literal.args[:at] + literal.args[at + 1 :]
-        for other in term:
-            if (other.predicate, other.negated, len(other.args)) != kind or other.args[at] not in spoken:
-                continue
-            if other.args[:at] + other.args[at + 1 :] == rest:
-                return True
+    """Whether another literal of ``term`` is ``literal`` but for one argument (:func:`twin_at`),
+    which ``spoken`` holds there and not in ``literal`` (``On_Juice_Table1`` beside
+    ``On_Juice_Table2``, table 2 named)."""
+    about = objects_of(words, literal)
+    for other in term:
+        at = twin_at(literal, other)
+        if at is not None and literal.args[at] in about - spoken and other.args[at] in spoken:
+            return True
     return False

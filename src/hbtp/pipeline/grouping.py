@@ -25,7 +25,7 @@ from hbtp.domains.words import Words, is_number, spoken_words, words_for
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
-from hbtp.pipeline.clauses import objects_of
+from hbtp.pipeline.clauses import objects_of, twin_at
 
 log = logging.getLogger(__name__)
 
@@ -89,14 +89,10 @@ def _connective(
 ) -> str | None:
     """The connective ("or" or "and") when ``literal`` and ``other`` are twins whose two objects
     every pair of names said one after the other joins so; else ``None``."""
-    if literal.negated or other.negated or literal.predicate != other.predicate:
+    at = None if literal.negated else twin_at(literal, other)
+    if at is None:
         return None
-    if len(literal.args) != len(other.args):
-        return None
-    differ = [i for i, (x, y) in enumerate(zip(literal.args, other.args, strict=True)) if x != y]
-    if len(differ) != 1:
-        return None
-    pair = {literal.args[differ[0]], other.args[differ[0]]}
+    pair = {literal.args[at], other.args[at]}
     if not pair <= objects_of(words, literal) | objects_of(words, other):
         return None
     shared = set(literal.args) - pair
