@@ -9,11 +9,11 @@ from __future__ import annotations
 import random
 
 import pytest
+from scripted import Taught, verbalised
 
 from hbtp.domains import Scenario, load_scenario
 from hbtp.domains.words import parse_words, words_for
 from hbtp.errors import InputError
-from hbtp.llm.backend import PromptStyle, Reply, Request
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
 from hbtp.pipeline.clauses import has_twin, objects_of, spoken_objects
@@ -24,8 +24,6 @@ from hbtp.pipeline.polarity import negations_mended
 from hbtp.pipeline.stand_ins import named_in_place
 from hbtp.pipeline.strangers import asked_about, asked_beside
 from hbtp.pipeline.undone import undone_added
-from hbtp.train.example_set import make_examples
-from hbtp.train.examples import ExampleKind
 
 
 @pytest.fixture(scope="module")
@@ -86,12 +84,7 @@ def test_a_negation_that_does_not_govern_the_literal_changes_nothing(
 @pytest.fixture(scope="module")
 def generated(small: Scenario) -> list[tuple[str, str]]:
     """Instructions the verbaliser wrote (never the instruction dataset), with their goals."""
-    examples = make_examples(small, 150, seed=11)
-    return [
-        (example.prompt.split("Instruction:", 1)[1].rsplit("\nGoals:", 1)[0].strip(), example.goal)
-        for example in (*examples.train, *examples.held_out)
-        if example.kind is ExampleKind.GOAL and not example.reply.strip().startswith("Unknown")
-    ]
+    return verbalised(small, 150, seed=11)
 
 
 def test_generated_instructions_keep_their_goals_and_get_their_negations_back(
@@ -110,25 +103,6 @@ def test_generated_instructions_keep_their_goals_and_get_their_negations_back(
         back = parse_goal(negations_mended(small, text, positive))
         mended += {frozenset(term) for term in back} == {frozenset(term) for term in terms}
     assert mended >= 0.8 * len(negated)
-
-
-class Taught:
-    """A taught model that answers with the given goals in turn (the last one again and again)."""
-
-    name = "scripted"
-    prompt_style = PromptStyle.COMPLETION
-    taught = True
-
-    def __init__(self, *replies: str) -> None:
-        self.replies = list(replies)
-        self.asked = 0
-
-    def complete(self, request: Request) -> Reply:
-        self.asked += 1
-        return Reply(self.replies[min(self.asked, len(self.replies)) - 1], seconds=0.1)
-
-    def close(self) -> None:
-        return None
 
 
 @pytest.mark.parametrize(

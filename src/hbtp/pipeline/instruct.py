@@ -73,6 +73,7 @@ from hbtp.pipeline.polarity import negations_mended
 from hbtp.pipeline.stand_ins import named_in_place
 from hbtp.pipeline.strangers import asked_about, asked_beside
 from hbtp.pipeline.undone import undone_added
+from hbtp.pipeline.unspoken import unspoken_dropped
 from hbtp.planning.regression import stuck
 
 log = logging.getLogger(__name__)
@@ -93,7 +94,8 @@ class InstructOptions:
     #: Drop a taught model's literals about objects the instruction does not name (when it names
     #: those of other literals of the same conjunction): :func:`unsaid_dropped`; and its literals
     #: about the robot itself that the instruction does not say (beside literals about the world):
-    #: :func:`hbtp.pipeline.own_state.unasked_own_dropped`.
+    #: :func:`hbtp.pipeline.own_state.unasked_own_dropped`; and its literals of a kind of fact the
+    #: instruction never speaks of that name nothing new: :func:`hbtp.pipeline.unspoken.unspoken_dropped`.
     drop_unsaid: bool = True
     #: Turn a taught model's positive literal into its negation where the instruction says it negated
     #: ("never turn the temperature down"): :func:`hbtp.pipeline.polarity.negations_mended`; and add
@@ -277,7 +279,8 @@ def goal_from_instruction(
 def _read_against(scenario: Scenario, text: str, proposed: str, *, options: InstructOptions) -> str:
     """A taught model's goal read against the words of its instruction: objects it names put in the
     place of others (:func:`hbtp.pipeline.stand_ins.named_in_place`), literals about objects it
-    does not name left out (:func:`unsaid_dropped`), literals it says negated negated
+    does not name left out (:func:`unsaid_dropped`), and those of a kind of fact it never speaks of
+    that name nothing new (:func:`hbtp.pipeline.unspoken.unspoken_dropped`), literals it says negated negated
     (:func:`hbtp.pipeline.polarity.negations_mended`) and those it says undone added negated
     (:func:`hbtp.pipeline.undone.undone_added`), literals about the robot itself it does not
     ask for left out (:func:`hbtp.pipeline.own_state.unasked_own_dropped`), alternatives grouped as
@@ -285,7 +288,7 @@ def _read_against(scenario: Scenario, text: str, proposed: str, *, options: Inst
     if options.place_named:
         proposed = named_in_place(scenario, text, proposed)
     if options.drop_unsaid:
-        proposed = unsaid_dropped(scenario, text, proposed)
+        proposed = unspoken_dropped(scenario, text, unsaid_dropped(scenario, text, proposed))
     if options.mend_negations:
         proposed = undone_added(scenario, text, negations_mended(scenario, text, proposed))
     if options.drop_unsaid:
