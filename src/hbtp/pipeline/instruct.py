@@ -70,6 +70,7 @@ from hbtp.pipeline.clauses import has_twin, objects_of, spoken_objects
 from hbtp.pipeline.grouping import regrouped
 from hbtp.pipeline.own_state import unasked_own_dropped
 from hbtp.pipeline.polarity import negations_mended
+from hbtp.pipeline.sides import sides_as_said
 from hbtp.pipeline.stand_ins import named_in_place
 from hbtp.pipeline.strangers import asked_about, asked_beside
 from hbtp.pipeline.undone import undone_added
@@ -106,7 +107,8 @@ class InstructOptions:
     #: :func:`hbtp.pipeline.stand_ins.named_in_place`.
     place_named: bool = True
     #: Group a taught model's alternatives as the instruction joins their objects ("the juice or a
-    #: soft drink" read with ``&``): :func:`hbtp.pipeline.grouping.regrouped`.
+    #: soft drink" read with ``&``): :func:`hbtp.pipeline.grouping.regrouped`; and take its choices of
+    #: several literals from the sides of the instruction's "or": :func:`hbtp.pipeline.sides.sides_as_said`.
     group_as_said: bool = True
     #: Refuse a goal that puts an object the instruction never names in the place of a thing it names
     #: that the world lacks (:func:`substituted`), or drops a thing the world lacks that the
@@ -283,8 +285,9 @@ def _read_against(scenario: Scenario, text: str, proposed: str, *, options: Inst
     that name nothing new (:func:`hbtp.pipeline.unspoken.unspoken_dropped`), literals it says negated negated
     (:func:`hbtp.pipeline.polarity.negations_mended`) and those it says undone added negated
     (:func:`hbtp.pipeline.undone.undone_added`), literals about the robot itself it does not
-    ask for left out (:func:`hbtp.pipeline.own_state.unasked_own_dropped`), alternatives grouped as
-    it joins their objects (:func:`hbtp.pipeline.grouping.regrouped`)."""
+    ask for left out (:func:`hbtp.pipeline.own_state.unasked_own_dropped`), alternatives taken from
+    the sides of its "or" (:func:`hbtp.pipeline.sides.sides_as_said`) and grouped as it joins their
+    objects (:func:`hbtp.pipeline.grouping.regrouped`)."""
     if options.place_named:
         proposed = named_in_place(scenario, text, proposed)
     if options.drop_unsaid:
@@ -294,7 +297,7 @@ def _read_against(scenario: Scenario, text: str, proposed: str, *, options: Inst
     if options.drop_unsaid:
         proposed = unasked_own_dropped(scenario, text, proposed)
     if options.group_as_said:
-        proposed = regrouped(scenario, text, proposed)
+        proposed = regrouped(scenario, text, sides_as_said(scenario, text, proposed))
     return proposed
 
 
