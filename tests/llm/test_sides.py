@@ -30,6 +30,10 @@ from hbtp.pipeline.sides import sides_as_said
         ("robothow-small", "Put the apple in the fridge, the cutlets on the table, or the wine in the microwave.",
          "IsIn_apple_fridge & IsOn_cutlets_kitchentable | IsIn_wine_microwave",
          "IsIn_apple_fridge | IsOn_cutlets_kitchentable | IsIn_wine_microwave"),
+        # not the items of a list joined by "and": its last item is one side
+        ("robowaiter", "Turn on the AC, chips on table 1 and a coffee on table 2; or, if not, a yogurt on table 3.",
+         "Active_AC | On_Chips_Table1 | On_Coffee_Table2 | On_Yogurt_Table3",
+         "Active_AC & On_Chips_Table1 & On_Coffee_Table2 | On_Yogurt_Table3"),
         # unchanged: grouped as said already, one side only, a list, a negation, no cut, "if" not pointing back
         ("robothow-small", "Either put the apple in the fridge and shut it, or leave the apple on the kitchen table.",
          "IsIn_apple_fridge & IsClose_fridge | IsOn_apple_kitchentable",

@@ -4,13 +4,14 @@ IsOn_juice_kitchentable | IsClose_fridge``.
 
 A taught model writes the literals of each choice but, for a choice of several literals, now and
 then joins the wrong ones. Where the instruction offers its choices as clauses, its words split
-into *sides* at each cut: an "or" after punctuation or after an "either" (and the punctuation
-before it in its sentence: the items of a list, "the fridge, the microwave, or the cabinet"), an
-"otherwise", and an "if" after punctuation that points back ("..., if that's too much trouble,
-...", "if there's no time", "if not"). A literal belongs to the side of the last object it names that no other side
-names ("leave it on the kitchen table": the table's side, not the juice's). Where every literal
-of the goal is positive and belongs to a side, and two sides or more have literals, the goal is
-one alternative per side, its literals joined (:func:`sides_as_said`).
+into *sides* at each cut: an "or" after punctuation or after an "either" (and, with no "and"
+before it in its sentence, the punctuation before it there: the items of a list, "the fridge, the
+microwave, or the cabinet"), an "otherwise", and an "if" after punctuation that points back
+("..., if that's too much trouble, ...", "if there's no time", "if not"). A literal belongs to
+the side of the last object it names that no other side names ("leave it on the kitchen table":
+the table's side, not the juice's). Where every literal of the goal is positive and belongs to a
+side, and two sides or more have literals, the goal is one alternative per side, its literals
+joined (:func:`sides_as_said`).
 """
 
 from __future__ import annotations
@@ -79,9 +80,12 @@ def _side(about: set[str], mentions: Sequence[tuple[int, int, str]], cuts: Seque
 
 def _cuts(text: str) -> list[int]:
     """Where each side after the first starts, counted in the :func:`spoken_words` of ``text``; the
-    items of a list that an "or" ends ("the fridge, the microwave, or the cabinet") are sides too."""
+    items of a list that an "or" ends ("the fridge, the microwave, or the cabinet") are sides too,
+    unless an "and" comes before it in its sentence ("the AC on, the milk on table 1 and the coffee
+    at the station; or, if you can't, ...")."""
     cuts: list[int] = []
     parts: list[int] = []  # where each part of the sentence so far starts, after punctuation
+    joined = False  # an "and" in the sentence so far: its list, if any, is not one of choices
     count = 0
     after_break = True
     either = False
@@ -91,13 +95,15 @@ def _cuts(text: str) -> list[int]:
             after_break = True
             either = either and token not in ".!?"
             parts = [] if token in ".!?" else [*parts, count]
+            joined = joined and token not in ".!?"
             continue
         following = tokens[at + 1 : at + 2]
         if token == "or" and (after_break or either):
-            cuts += [*parts, count]
+            cuts += [count] if joined else [*parts, count]
         elif token == "otherwise" or (token == "if" and after_break and bool(set(following) & _BACK)):
             cuts.append(count)
         either = either or token == "either"
+        joined = joined or token == "and"
         after_break = False
         count += len(spoken_words(token))
     return sorted(set(cuts))
