@@ -4,6 +4,7 @@ tests, not taken from the instruction dataset."""
 
 from __future__ import annotations
 
+import random
 from pathlib import Path
 
 import pytest
@@ -11,8 +12,12 @@ from scripted import Taught, verbalised
 
 from hbtp.domains import Scenario, load_scenario
 from hbtp.domains.scenarios import ScenarioOptions, load_pddl_scenario
+from hbtp.domains.words import parse_words, words_for
+from hbtp.errors import InputError
+from hbtp.pipeline.clauses import phrasing_runs, tokens
 from hbtp.pipeline.instruct import InstructOptions, goal_from_instruction
 from hbtp.pipeline.unspoken import unspoken_dropped
+from hbtp.train.verbalise import verbalise
 
 
 @pytest.mark.parametrize(
@@ -79,3 +84,19 @@ def test_a_taught_models_goal_is_read_without_a_literal_never_spoken_of() -> Non
     assert goal_from_instruction(world, text, Taught(reply)).goal == "On_Water_Table1"
     kept = goal_from_instruction(world, text, Taught(reply), options=InstructOptions(drop_unsaid=False))
     assert kept.goal == reply
+
+
+def test_words_heard_of_some_objects_only_are_read_never_written() -> None:
+    """``heard`` phrasings ("run {0}", "wash {0}") count as speaking of the literal but the verbaliser
+    never writes them ("run the candle"); one that holds a negation is refused."""
+    world = load_scenario("robothow-small")
+    words = words_for(world)
+    heard = {"start", "run", "running", "wash", "scrub"}
+    assert {w for p in ("IsSwitchedOn", "IsClean") for run in phrasing_runs(words.predicates[p]) for w in run} >= heard
+    goals = ["IsSwitchedOn_tv & IsClean_kitchentable", "IsSwitchedOn_candle", "IsClean_apple & IsSwitchedOn_microwave"]
+    said = {w for goal in goals for text in verbalise(goal, words, random.Random(3), 40) for w in tokens(text)}
+    assert said & {"switch", "turn", "clean"}
+    assert not said & heard
+    raw = {"predicates": {"Lit": {"say": ["light {0}"], "state": ["{0} is lit"], "heard": ["don't blow out {0}"]}}}
+    with pytest.raises(InputError, match="heard"):
+        parse_words(raw)

@@ -45,17 +45,20 @@ class Phrasing:
     """How a literal is said: imperatives making it true (``say``), facts "SUBJECT is COMPLEMENT"
     (``state``, at least one), negative imperatives for its negation (``deny``) and imperatives that
     make it false with no negation word, its one object last (``undo``: "leave {0}"); ``{0}``, ``{1}``
-    are the arguments. ``derived``: made up from the PDDL name, not read from the data."""
+    are the arguments. ``heard``: deeds or facts that say it of some objects only ("run {0}" of a
+    dishwasher, not of a candle), read in instructions and never written by the verbaliser.
+    ``derived``: made up from the PDDL name, not read from the data."""
 
     say: tuple[str, ...]
     state: tuple[str, ...]
     deny: tuple[str, ...] = ()
     derived: bool = False
     undo: tuple[str, ...] = ()
+    heard: tuple[str, ...] = ()
 
     def fits(self, arity: int) -> bool:
         """Whether every placeholder names one of ``arity`` arguments."""
-        texts = (*self.say, *self.state, *self.deny, *self.undo)
+        texts = (*self.say, *self.state, *self.deny, *self.undo, *self.heard)
         slots = [int(m.group(2)) for text in texts for m in SLOT.finditer(text)]
         return all(slot < arity for slot in slots)
 
@@ -342,11 +345,11 @@ def _strings(where: str, value: Any) -> tuple[str, ...]:
 def _read_phrasing(where: str, value: Any) -> Phrasing:
     """A predicate's (or literal's) table, checked: facts are "SUBJECT is COMPLEMENT" (the glue
     frames need the copula), every ``deny`` holds a negation (never the opposite predicate) and
-    every ``undo`` none, with one placeholder, last."""
-    if not isinstance(value, dict) or not set(value) <= {"say", "state", "deny", "undo"}:
-        raise InputError(f"{where}: expected a table of say, state, deny and undo")
-    keys = ("say", "state", "deny", "undo")
-    say, state, deny, undo = (_strings(f"{where}.{key}", value.get(key, [])) for key in keys)
+    every ``undo`` none, with one placeholder, last; ``heard`` holds no negation."""
+    keys = ("say", "state", "deny", "undo", "heard")
+    if not isinstance(value, dict) or not set(value) <= set(keys):
+        raise InputError(f"{where}: expected a table of say, state, deny, undo and heard")
+    say, state, deny, undo, heard = (_strings(f"{where}.{key}", value.get(key, [])) for key in keys)
     if not state:
         raise InputError(f'{where}: needs at least one state ("{{0}} is ...")')
     for text in state:
@@ -359,7 +362,10 @@ def _read_phrasing(where: str, value: Any) -> Phrasing:
         slots = list(SLOT.finditer(text))
         if NEGATION.search(text) or len(slots) != 1 or text[slots[0].end() :].strip():
             raise InputError(f"{where}.undo: {text!r} must say a deed with no negation, its one object last")
-    return Phrasing(say, state, deny, undo=undo)
+    for text in heard:
+        if NEGATION.search(text):
+            raise InputError(f"{where}.heard: {text!r} holds a negation (it says the literal, not its negation)")
+    return Phrasing(say, state, deny, undo=undo, heard=heard)
 
 
 _FLAGS = ("plural", "article", "agent", "part")

@@ -57,9 +57,10 @@ def tokens(text: str) -> tuple[str, ...]:
 
 def phrasing_runs(phrasing: Phrasing) -> list[tuple[str, ...]]:
     """The words that say a literal of ``phrasing`` without its objects: each state's complement
-    ("switched on"), each deed ("turn on") and each unwanted deed ("leave on"), framing words aside."""
+    ("switched on"), each deed ("turn on"), each unwanted deed ("leave on") and each of those heard
+    of some objects only ("run", "running"), framing words aside."""
     texts = [*phrasing.say, *phrasing.deny]
-    for state in phrasing.state:
+    for state in (*phrasing.state, *phrasing.heard):
         match = COPULA.match(state)
         texts.append(match.group(3) if match else state)
     runs = [tuple(w for w in tokens(SLOT.sub(" ", text)) if w not in _FRAMES) for text in texts]
