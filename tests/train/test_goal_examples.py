@@ -10,12 +10,14 @@ import pytest
 
 from hbtp.domains import Scenario
 from hbtp.domains.words import words_for
+from hbtp.errors import InputError
 from hbtp.llm.goal_prompt import refusal_of, taught_goal_prompt
 from hbtp.logic.atoms import Atom, parse_atom
 from hbtp.logic.execution import apply_actions
 from hbtp.logic.goals import parse_goal
 from hbtp.planning import plan
 from hbtp.planning.generate import LEVELS, Sampling, generate_records
+from hbtp.train.example_set import make_examples
 from hbtp.train.examples import ExampleKind, check_disjoint, everyday, goal_key, held_goals, sample_records
 from hbtp.train.goal_examples import (
     _Alike,
@@ -252,3 +254,17 @@ def test_absent_atoms_are_the_negations_false_at_the_start(robowaiter: Scenario)
     assert task.atom_id(parse_atom("Low_ACTemperature")) not in task.initial_state
     assert absent_atoms(robowaiter, goal) == {parse_atom("Low_ACTemperature")}
     assert absent_atoms(robowaiter, "Active_AC") == frozenset()
+
+
+def test_an_instructions_only_set_has_no_hints_and_the_same_split(robowaiter: Scenario) -> None:
+    both = make_examples(robowaiter, 30, seed=2)
+    reading = make_examples(robowaiter, 30, seed=2, hints=False)
+    assert reading.train
+    assert all(e.kind is ExampleKind.GOAL for e in reading.train + reading.held_out)
+    assert set(reading.train) == {e for e in both.train if e.kind is ExampleKind.GOAL}
+    assert set(reading.held_out) == {e for e in both.held_out if e.kind is ExampleKind.GOAL}
+
+
+def test_a_set_that_teaches_nothing_is_refused(robowaiter: Scenario) -> None:
+    with pytest.raises(InputError, match="nothing to teach"):
+        make_examples(robowaiter, 30, seed=2, hints=False, instructions=False)

@@ -75,14 +75,15 @@ judging_options = option_group(
 
 @dataclass(frozen=True)
 class Labels:
-    """What the examples teach beside goals -> plans (``--instructions``), and whether the plans are
-    abridged (``--abridge``)."""
+    """What the examples teach: goals -> plans (``--hints``), instructions -> goals (``--instructions``);
+    and whether the plans are abridged (``--abridge``)."""
 
     instructions: bool = True
     abridge: bool = False
+    hints: bool = True
 
 
-#: ``--instructions/--no-instructions`` and ``--abridge``.
+#: ``--instructions/--no-instructions``, ``--abridge`` and ``--hints/--no-hints``.
 label_options = option_group(
     "labels",
     Labels,
@@ -96,6 +97,13 @@ label_options = option_group(
         "--abridge",
         is_flag=True,
         help="Teach plans without the steps the check of a reply puts back (shorter replies, faster answers).",
+    ),
+    click.option(
+        "--hints/--no-hints",
+        default=True,
+        show_default=True,
+        help="Teach goals -> hints (the plan, its predicates and objects); --no-hints with --instructions makes an "
+        "adapter that only reads instructions.",
     ),
 )
 
@@ -159,7 +167,7 @@ def train_command(
     request = TrainRequest(
         loaded, where, count, held_out, settings, Path(out_file) if out_file else None,
         Path(work) if work else None, time_limit, judging.evaluate, labels.instructions, _command_line(),
-        judging.baseline, labels.abridge,
+        judging.baseline, labels.abridge, labels.hints,
     )  # fmt: skip
     outcome = run_training(request, cache_folder().parent / "train", None if as_json else _progress)
     if as_json:
@@ -187,10 +195,11 @@ def _show(outcome: TrainOutcome) -> None:
 
 
 def _show_score(name: str, score: HeldOutScore) -> None:
-    click.echo(
-        f"{name}held back {score.examples} goals: NF {score.nf:.0%}, exact plan {score.exact:.0%}, "
-        f"predicates and objects covered {score.covered:.0%}, median {score.median_seconds:.2f} s per answer"
-    )
+    if score.examples:
+        click.echo(
+            f"{name}held back {score.examples} goals: NF {score.nf:.0%}, exact plan {score.exact:.0%}, "
+            f"predicates and objects covered {score.covered:.0%}, median {score.median_seconds:.2f} s per answer"
+        )
     if score.instructions:
         click.echo(
             f"{name}held back {score.instructions} instructions: goal exact {score.instruction_exact:.0%} "

@@ -41,6 +41,7 @@ def make_examples(
     max_expansions: int = 20_000,
     instructions: bool = True,
     abridge: bool = False,
+    hints: bool = True,
 ) -> ExampleSet:
     """The examples of ``scenario`` (see the module docstring), checked disjoint from its evaluation
     sets; :class:`InputError` when the world is too small to sample from.
@@ -49,16 +50,27 @@ def make_examples(
     With ``instructions``, each goal of everyday activity (:func:`~hbtp.train.examples.everyday`) also
     gives :data:`~hbtp.train.goal_examples.PER_GOAL` instruction examples (:mod:`hbtp.train.goal_examples`).
     With ``abridge``, a reply leaves out the actions the check puts back (:mod:`hbtp.train.abridge`).
+    Without ``hints``, the goals -> plans examples are left out (an adapter that only reads
+    instructions, beside one that gives the hints); both sets are made of the same split.
 
     Thousands of small searches label them: their objects go to the collector as they finish
     (:func:`hbtp.collector.searches_collected`), not frozen as a command's searches are."""
     with searches_collected():
-        return _make_examples(scenario, count, seed, held_out, max_expansions, instructions, abridge)
+        return _make_examples(scenario, count, seed, held_out, max_expansions, (hints, instructions), abridge)
 
 
 def _make_examples(
-    scenario: Scenario, count: int, seed: int, held_out: float, max_expansions: int, instructions: bool, abridge: bool
+    scenario: Scenario,
+    count: int,
+    seed: int,
+    held_out: float,
+    max_expansions: int,
+    taught: tuple[bool, bool],
+    abridge: bool,
 ) -> ExampleSet:
+    hints, instructions = taught
+    if not (hints or instructions):
+        raise InputError("nothing to teach: goals -> hints and instructions -> goals are both left out")
     records, dropped = sample_records(scenario, count, seed, max_expansions)
     if len(records) < 2:
         raise InputError(
@@ -68,7 +80,7 @@ def _make_examples(
     parts = []
     filled: set[str] = set()
     for index, part in enumerate(split(records, held_out, seed)):
-        labelled = [hints_example(record, scenario.task, abridge=abridge) for record in part]
+        labelled = [hints_example(record, scenario.task, abridge=abridge) for record in part] if hints else []
         examples = [example for example, _ in labelled]
         if index == 0:
             filled.update(p for _, left_out in labelled for p in left_out)

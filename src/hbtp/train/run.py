@@ -62,6 +62,8 @@ class TrainRequest:
     baseline: bool = False
     #: Teach plans without the actions the check puts back (:mod:`hbtp.train.abridge`).
     abridge: bool = False
+    #: Teach goals -> hints (left out for an adapter that only reads instructions).
+    hints: bool = True
 
 
 @dataclass(frozen=True)
@@ -129,6 +131,8 @@ def _examples(request: TrainRequest, work: Path) -> ExampleSet:
     asked = [request.source, request.count, request.held_out, request.settings.seed, request.instructions]
     if request.abridge:  # (a key of its own; the keys of full labels stay those of earlier runs)
         asked.append("abridged")
+    if not request.hints:
+        asked.append("no hints")
     key = hashlib.sha256(json.dumps([*asked, PROMPT_FORMAT, EXAMPLES_FORMAT], sort_keys=True).encode()).hexdigest()
     stored = work / "examples.json"
     if stored.is_file():
@@ -147,6 +151,7 @@ def _examples(request: TrainRequest, work: Path) -> ExampleSet:
         held_out=request.held_out,
         instructions=request.instructions,
         abridge=request.abridge,
+        hints=request.hints,
     )
     document = {
         "key": key,
