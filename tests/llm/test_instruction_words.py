@@ -164,6 +164,8 @@ def test_a_mended_goal_that_holds_at_the_start_is_refused(small: Scenario) -> No
         ("Clean the TV and the guitar.", ("guitar",)),  # alone in a list beside a deed
         ("The violin should be clean, and plug in the microwave.", ("violin",)),  # a state of its own
         ("Either the guitar or the TV must be switched on.", ("guitar",)),
+        ("Make sure the violin is on.", ("violin",)),  # plain words where a state is asked for
+        ("The guitar has to end up in the box.", ("guitar", "box")),
         # named beside what is asked, a part of a thing, or in a clause about the world's objects
         ("The match is about to start: switch on the TV.", ()),
         ("Switch the TV on, the violin sounds lonely.", ()),
@@ -316,6 +318,11 @@ def test_generated_instructions_get_a_misread_object_back(small: Scenario, gener
         # its clause says a deed of the world, and no literal is about that clause's objects alone
         ("Open the fridge and put the guitar on the kitchen table.", "IsOpen_fridge & IsOn_apple_kitchentable",
          ("guitar",)),
+        # placed where the words before it in its sentence ask for a state ("on", "on top of")
+        ("The guitar should be on top of the bed. Open the fridge.", "IsOpen_fridge", ("guitar",)),
+        ("I'd like the fridge open and the guitar on the kitchen table.", "IsOpen_fridge", ("guitar",)),
+        ("Make sure the apple is on the guitar.", "IsOn_apple_kitchentable", ("guitar",)),
+        ("Open the fridge, since the guitar on the bed is in the way.", "IsOpen_fridge", ()),  # a fact told
         # named beside what is asked; no thing the world lacks; a thing the world lacks said aside
         ("Put the apple on the kitchen table next to the guitar.", "IsOn_apple_kitchentable", ()),
         ("Put the apple and the plate in the fridge.", "IsIn_apple_fridge", ()),

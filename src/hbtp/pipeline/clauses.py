@@ -26,6 +26,12 @@ _PARTICLES = frozenset(("on", "off", "up", "down", "in", "out"))
 #: Words too plain to say a state or a deed on their own ("the tv is on", "bring it to the bar").
 PLAIN = frozenset(("on", "in", "to", "at", "of", "up", "off", "into", "onto", "by", "with", "from", "for", "top"))
 PRONOUNS = frozenset(("it", "them", "they"))
+#: Words that ask for a state of what the rest of their sentence says ("make sure the X is on the Y",
+#: "the X must be on the Y", "I'd like the X on the Y"): a thing there is wanted where it is placed.
+_WANTED = (("make", "sure"), ("ensure",), ("see", "to", "it"), ("should",), ("must",), ("need", "to"),
+           ("needs", "to"), ("has", "to"), ("have", "to"), ("ought", "to"), ("end", "up"), ("i", "want"),
+           ("i'd", "like"), ("i", "would", "like"), ("i", "need"), ("we", "want"), ("we", "need"))  # fmt: skip
+_SENTENCES = re.compile(r"[.!?;:]")
 
 
 def clauses(text: str) -> list[tuple[str, ...]]:
@@ -33,6 +39,24 @@ def clauses(text: str) -> list[tuple[str, ...]]:
     "while"), each as its lower-case words, apostrophes kept ("don't"); empty ones left out."""
     cut = (tokens(part) for part in _CLAUSES.split(text) if part)
     return [said for said in cut if said]
+
+
+def wanted(text: str) -> list[bool]:
+    """For each clause of ``text`` (:func:`clauses`), whether words that ask for a state (``_WANTED``)
+    stand in it or in a clause before it in its sentence."""
+    found: list[bool] = []
+    for sentence in _SENTENCES.split(text):
+        asked = False
+        for clause in clauses(sentence):
+            asked = asked or any(_contains(clause, run) for run in _WANTED)
+            found.append(asked)
+    return found
+
+
+def _contains(said: Sequence[str], run: tuple[str, ...]) -> bool:
+    """Whether the words of ``run`` stand in ``said`` one after the other."""
+    width = len(run)
+    return any(tuple(said[at : at + width]) == run for at in range(len(said) - width + 1))
 
 
 def spans(text: str) -> list[tuple[str, ...]]:

@@ -28,7 +28,7 @@ from collections.abc import Sequence
 from hbtp.domains.scenarios import Scenario
 from hbtp.domains.words import Words, spoken_words, words_for
 from hbtp.logic.atoms import Atom
-from hbtp.pipeline.clauses import PLAIN, clauses, in_order, objects_of, phrasing_runs, world_objects
+from hbtp.pipeline.clauses import PLAIN, clauses, in_order, objects_of, phrasing_runs, wanted, world_objects
 
 #: Words that may stand beside a thing said alone in a list ("and the box", "either the cereal").
 _ALONE = frozenset(("the", "a", "an", "my", "your", "some", "either", "both", "neither", "also", "too", "nor"))
@@ -41,10 +41,9 @@ def asked_about(scenario: Scenario, text: str) -> tuple[str, ...]:
     if not words.lacking_in(text):
         return ()
     world = world_objects(scenario)
-    runs = _saying_runs(words, scenario)
     parts = words.parts()
     said = clauses(text)
-    says = [any(in_order(run, clause) for run in runs) for clause in said]
+    says = _says(words, scenario, text)
     found: list[str] = []
     for at, clause in enumerate(said):
         spoken = " ".join(clause)
@@ -65,12 +64,12 @@ def asked_beside(scenario: Scenario, text: str, goal: Sequence[Sequence[Atom]]) 
         return ()
     world = world_objects(scenario)
     about = [objects_of(words, literal) for term in goal for literal in term]
-    runs = _saying_runs(words, scenario)
     said = clauses(text)
+    says = _says(words, scenario, text)
     found: list[str] = []
     for at, clause in enumerate(said):
         named = words.named_in(" ".join(clause)) & world
-        unsaid = bool(named) and any(in_order(run, clause) for run in runs)
+        unsaid = bool(named) and says[at]
         for thing in _strangers(words, world, clause):
             mates = _listed_with(words, world, said, at, tuple(thing.split()))
             if any(mates & objects for objects in about) or (unsaid and not any(o and o <= named for o in about)):
@@ -130,9 +129,17 @@ def _called(words: Words, name: str, run: tuple[str, ...]) -> bool:
     return False
 
 
-def _saying_runs(words: Words, scenario: Scenario) -> list[tuple[str, ...]]:
-    """The words of the world's predicates that say a state or a deed on their own (not "on", "at")."""
-    return [run for run in _world_runs(words, scenario) if set(run) - PLAIN]
+def _says(words: Words, scenario: Scenario, text: str) -> list[bool]:
+    """For each clause of ``text``, whether it says a state or a deed of the world's predicates: words
+    that do on their own ("switched on", "put ... in"), or plain ones ("on", "on top of") where
+    words before them in the sentence ask for a state (:func:`hbtp.pipeline.clauses.wanted`: "the
+    radio must be on top of the bed")."""
+    every = _world_runs(words, scenario)
+    saying = [run for run in every if set(run) - PLAIN]
+    return [
+        any(in_order(run, clause) for run in (every if asked else saying))
+        for clause, asked in zip(clauses(text), wanted(text), strict=True)
+    ]
 
 
 def _world_runs(words: Words, scenario: Scenario) -> list[tuple[str, ...]]:
