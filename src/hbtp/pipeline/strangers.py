@@ -53,7 +53,7 @@ def asked_about(scenario: Scenario, text: str) -> tuple[str, ...]:
         alone = set(clause) <= _ALONE | {w for thing in strangers for w in thing.split()}
         if says[at] or (alone and any(says[max(at - 1, 0) : at + 2])):
             found += strangers
-    return tuple(dict.fromkeys(found))
+    return _whole(found)
 
 
 def asked_beside(scenario: Scenario, text: str, goal: Sequence[Sequence[Atom]]) -> tuple[str, ...]:
@@ -72,9 +72,27 @@ def asked_beside(scenario: Scenario, text: str, goal: Sequence[Sequence[Atom]]) 
         unsaid = bool(named) and says[at]
         for thing in _strangers(words, world, clause):
             mates = _listed_with(words, world, said, at, tuple(thing.split()))
-            if any(mates & objects for objects in about) or (unsaid and not any(o and o <= named for o in about)):
+            if any(mates & objects for objects in about) or (unsaid and not _told(words, goal, named, clause)):
                 found.append(thing)
-    return tuple(dict.fromkeys(found))
+    return _whole(found)
+
+
+def _whole(things: Sequence[str]) -> tuple[str, ...]:
+    """``things`` once each, in their order, those said within another left out ("air conditioning"
+    beside "air conditioning temperature")."""
+    return tuple(t for t in dict.fromkeys(things) if not any(t != o and f" {t} " in f" {o} " for o in things))
+
+
+def _told(words: Words, goal: Sequence[Sequence[Atom]], named: frozenset[str], clause: tuple[str, ...]) -> bool:
+    """Whether a literal of ``goal`` is about objects ``clause`` names (``named``) alone and is said by
+    the clause's words ("the air conditioning is in the microwave" does not say
+    ``IsSwitchedOn_microwave``)."""
+    for literal in (literal for term in goal for literal in term):
+        objects = objects_of(words, literal)
+        runs = phrasing_runs(words.phrasing(literal))
+        if objects and objects <= named and any(in_order(run, clause) for run in runs):
+            return True
+    return False
 
 
 def _strangers(words: Words, world: frozenset[str], clause: tuple[str, ...]) -> list[str]:
