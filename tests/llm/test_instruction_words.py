@@ -81,6 +81,33 @@ def test_a_negation_that_does_not_govern_the_literal_changes_nothing(
     assert negations_mended(robowaiter, text, goal) == goal
 
 
+@pytest.mark.parametrize(
+    ("text", "goal", "mended"),
+    [
+        # a negated literal that asks for nothing (its atom is false at the start), said positive
+        ("Put the apple in the fridge, or on the kitchen table, either is fine.",
+         "~IsIn_apple_fridge | IsOn_apple_kitchentable", "IsIn_apple_fridge | IsOn_apple_kitchentable"),
+        ("Start the microwave and open the fridge (not the window).", "~IsSwitchedOn_microwave & IsOpen_fridge",
+         "IsSwitchedOn_microwave & IsOpen_fridge"),  # a negation elsewhere
+        # an alternative that becomes another is kept once
+        ("Put the apple in the fridge or in the microwave.",
+         "IsIn_apple_fridge | IsIn_apple_microwave | ~IsIn_apple_fridge", "IsIn_apple_fridge | IsIn_apple_microwave"),
+        # its atom holds at the start, it is said negated, or its clause has a negation word
+        ("The fridge is closed; open it.", "~IsClose_fridge", "~IsClose_fridge"),
+        ("Put the apple in the fridge and don't switch the TV on.", "IsIn_apple_fridge & ~IsSwitchedOn_tv",
+         "IsIn_apple_fridge & ~IsSwitchedOn_tv"),
+        ("The TV is off; it should never be switched on.", "~IsSwitchedOn_tv", "~IsSwitchedOn_tv"),
+    ],
+)  # fmt: skip
+def test_a_negated_literal_said_positive_becomes_its_atom(small: Scenario, text: str, goal: str, mended: str) -> None:
+    assert negations_mended(small, text, goal) == mended
+
+
+def test_a_deed_undone_keeps_its_literal_negated(robowaiter: Scenario) -> None:
+    goal = "~RobotNear_Table1"
+    assert negations_mended(robowaiter, "Step away from table 1, you are at it.", goal) == goal
+
+
 @pytest.fixture(scope="module")
 def generated(small: Scenario) -> list[tuple[str, str]]:
     """Instructions the verbaliser wrote (never the instruction dataset), with their goals."""

@@ -18,6 +18,13 @@ a request ("don't forget to switch on the TV") or sets things aside ("the plain 
 milk") does not govern the literal, nor does a "not" that is part of a name ("the
 not-from-concentrate juice"). Such a literal becomes its negation (:func:`negations_mended`);
 the checks then judge the goal as they judge any other (one that now holds at the start is refused).
+
+The other way, a negated literal that asks for nothing (its atom does not hold at the start) is
+*said positive* when a clause with no negation word ("not", "n't", "never", "no", ...) names its
+objects and no others and has its words (:func:`said_positive`: "the milk can go either into the
+fridge or onto the table" read as ``~IsIn_milk_fridge | ...``), no clause says it negated (as
+above) and none says a deed that undoes it ("leave the bar"). Such a literal becomes positive.
+A literal whose words are derived from its PDDL name is never judged so.
 """
 
 from __future__ import annotations
@@ -26,7 +33,7 @@ import logging
 from collections.abc import Sequence
 
 from hbtp.domains.scenarios import Scenario
-from hbtp.domains.words import Words, words_for
+from hbtp.domains.words import SLOT, Words, words_for
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
@@ -47,13 +54,16 @@ _REPORTING = frozenset(("is", "are", "was", "were", "am", "be", "been", "do", "d
 #: A bare "not" before these words sets a thing aside ("the milk, not the juice").
 _ASIDE = frozenset(("the", "a", "an", "my", "your", "this", "that", "those", "these", "any", "only", "just"))
 _ASKING = (("make", "sure"), ("ensure",), ("see", "to", "it"), ("see", "that"))
+#: Words that negate, whatever they govern: an instruction with none of them negates nothing.
+_NEGATING = frozenset(("not", "no", "never", "nothing", "without", "neither", "nor", "none", "nobody", "nowhere"))
 #: Words after "don't" that soften a request rather than forbid a deed.
 _SOFTENERS = frozenset(("forget", "hesitate", "mind", "fail", "worry", "know", "think", "care", "need"))
 
 
 def negations_mended(scenario: Scenario, text: str, goal: str) -> str:
-    """``goal`` with each positive literal the instruction ``text`` says negated (see the module
-    docstring) turned into its negation; a goal that does not parse is returned as it is."""
+    """``goal`` with each positive literal the instruction ``text`` says negated turned into its
+    negation, and each negated one it says positive into its atom (see the module docstring), an
+    alternative that becomes another kept once; a goal that does not parse is returned as it is."""
     try:
         terms = parse_goal(goal)
     except InputError:
@@ -63,13 +73,22 @@ def negations_mended(scenario: Scenario, text: str, goal: str) -> str:
     world = world_objects(scenario)
     mended, turned = [], []
     for term in terms:
-        new = tuple(literal.negate() if said_negated(words, said, literal, world) else literal for literal in term)
+        new = tuple(
+            literal.negate()
+            if said_negated(words, said, literal, world)
+            or (not _at_start(scenario, literal) and said_positive(words, said, literal, world))
+            else literal
+            for literal in term
+        )
         turned += [literal.underscored for literal, was in zip(new, term, strict=True) if literal != was]
         mended.append(new)
     if not turned:
         return goal
-    log.info("instruction: %s said negated", ", ".join(turned))
-    return format_goal(mended)
+    log.info("instruction: %s said with the other sign", ", ".join(turned))
+    unique: dict[frozenset[Atom], tuple[Atom, ...]] = {}
+    for term in mended:  # an alternative now twice: once
+        unique.setdefault(frozenset(term), term)
+    return format_goal(list(unique.values()))
 
 
 def said_negated(words: Words, clauses: Sequence[tuple[str, ...]], literal: Atom, world: frozenset[str]) -> bool:
@@ -99,6 +118,41 @@ def said_negated(words: Words, clauses: Sequence[tuple[str, ...]], literal: Atom
                 return True
         before = named or before
     return False
+
+
+def said_positive(words: Words, clauses: Sequence[tuple[str, ...]], literal: Atom, world: frozenset[str]) -> bool:
+    """Whether the negated ``literal`` is said positive in ``clauses`` (see the module docstring)."""
+    phrasing = words.phrasing(literal.positive)
+    objects = objects_of(words, literal)
+    if not literal.negated or not objects or phrasing.derived:
+        return False
+    if said_negated(words, clauses, literal.positive, world):
+        return False
+    undo = [tokens(SLOT.sub(" ", text)) for text in phrasing.undo]
+    runs = phrasing_runs(phrasing)
+    before: frozenset[str] = frozenset()
+    positive = False
+    for said in clauses:
+        named = words.named_in(" ".join(said)) & world
+        if objects in readings(named, said, before):
+            if any(in_order(run, said) for run in undo):
+                return False
+            positive = positive or (not _negating(said) and any(in_order(run, said) for run in runs))
+        before = named or before
+    return positive
+
+
+def _negating(said: Sequence[str]) -> bool:
+    """Whether a word of ``said`` negates (:data:`_NEGATING`, or ends in "n't")."""
+    return any(word in _NEGATING or word.endswith("n't") for word in said)
+
+
+def _at_start(scenario: Scenario, literal: Atom) -> bool:
+    """Whether ``literal``'s atom holds at the start (an atom the world does not know never does)."""
+    try:
+        return scenario.task.atom_id(literal.positive) in scenario.task.initial_state
+    except InputError:
+        return False
 
 
 def _in_names(words: Words, said: tuple[str, ...], named: frozenset[str]) -> set[int]:
