@@ -16,7 +16,7 @@ from hbtp.domains.words import parse_words, words_for
 from hbtp.errors import InputError
 from hbtp.pipeline.clauses import phrasing_runs, tokens
 from hbtp.pipeline.instruct import InstructOptions, goal_from_instruction
-from hbtp.pipeline.unspoken import unspoken_dropped
+from hbtp.pipeline.unspoken import unspoken_dropped, unspoken_listed
 from hbtp.train.verbalise import verbalise
 
 
@@ -54,6 +54,27 @@ def test_a_literal_whose_kind_of_fact_is_never_spoken_of_is_left_out(
     assert unspoken_dropped(load_scenario(name), text, goal) == read
 
 
+@pytest.mark.parametrize(
+    ("text", "goal", "read"),
+    [
+        # listed with an object of a literal whose kind is spoken of: that kind
+        ("Put the apple and the cutlets in the fridge.", "IsIn_apple_fridge & IsCut_cutlets",
+         "IsIn_apple_fridge & IsIn_cutlets_fridge"),
+        ("Wipe the plate and the kitchen table clean.", "IsClean_plate & IsSwitchedOn_kitchentable",
+         "IsClean_plate & IsClean_kitchentable"),
+        # its kind is spoken of, or its object is listed with none of the others'
+        ("Put the apple in the fridge and cut the cutlets.", "IsIn_apple_fridge & IsCut_cutlets",
+         "IsIn_apple_fridge & IsCut_cutlets"),
+        ("Put the apple in the fridge, then the cutlets go on the plate.", "IsIn_apple_fridge & IsCut_cutlets",
+         "IsIn_apple_fridge & IsCut_cutlets"),
+    ],
+)  # fmt: skip
+def test_a_literal_of_a_kind_never_spoken_of_takes_the_kind_of_a_thing_listed_with_it(
+    text: str, goal: str, read: str
+) -> None:
+    assert unspoken_listed(load_scenario("robothow-small"), text, goal) == read
+
+
 def test_a_world_without_words_is_not_judged(tmp_path: Path) -> None:
     (tmp_path / "d.pddl").write_text(
         "(define (domain d) (:predicates (at ?x ?y) (lit ?x))"
@@ -75,6 +96,7 @@ def test_generated_instructions_keep_their_literals() -> None:
         said = verbalised(world, 120, seed=13)
         assert len([goal for _, goal in said if "&" in goal]) >= 20
         assert [(text, goal) for text, goal in said if unspoken_dropped(world, text, goal) != goal] == []
+        assert [(text, goal) for text, goal in said if unspoken_listed(world, text, goal) != goal] == []
 
 
 def test_a_taught_models_goal_is_read_without_a_literal_never_spoken_of() -> None:
@@ -84,6 +106,12 @@ def test_a_taught_models_goal_is_read_without_a_literal_never_spoken_of() -> Non
     assert goal_from_instruction(world, text, Taught(reply)).goal == "On_Water_Table1"
     kept = goal_from_instruction(world, text, Taught(reply), options=InstructOptions(drop_unsaid=False))
     assert kept.goal == reply
+
+
+def test_a_taught_models_goal_is_read_with_the_kind_of_a_thing_listed() -> None:
+    world: Scenario = load_scenario("robothow-small")
+    text, reply = "Wipe the plate and the kitchen table clean.", "IsClean_plate & IsSwitchedOn_kitchentable"
+    assert goal_from_instruction(world, text, Taught(reply)).goal == "IsClean_plate & IsClean_kitchentable"
 
 
 def test_words_heard_of_some_objects_only_are_read_never_written() -> None:

@@ -9,23 +9,33 @@ its objects that nobody mentioned. Every phrasing of a predicate the words file 
 (:func:`hbtp.pipeline.clauses.phrasing_runs`). A literal is *unspoken* when none of those runs of
 words comes, in order, anywhere in the instruction. In a conjunction of several literals, an
 unspoken literal whose objects all belong to other literals of that conjunction (it names nothing
-new) is left out (:func:`unspoken_dropped`). A predicate whose words are made up from its PDDL name
-(a world without words) is never judged, nor is a literal about no object.
+new) is left out (:func:`unspoken_dropped`). Before that, an unspoken literal about one object that
+no other literal holds, and that the instruction lists with an object of another literal whose kind
+it speaks of ("the rug and the toaster", "the chicken, the peach"), takes that literal's kind: "clean
+the rug and the toaster" read as ``IsClean_rug & IsSwitchedOn_toaster`` becomes ``IsClean_rug &
+IsClean_toaster`` (:func:`unspoken_listed`), when exactly one such literal of the world offers
+itself. A predicate whose words are made up from its PDDL name (a world without words) is never
+judged, nor is a literal about no object.
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
+from itertools import pairwise
 
 from hbtp.domains.scenarios import Scenario
-from hbtp.domains.words import SLOT, Words, words_for
+from hbtp.domains.words import SLOT, Words, spoken_words, words_for
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
 from hbtp.pipeline.clauses import in_order, objects_of, phrasing_runs, tokens
 
 log = logging.getLogger(__name__)
+
+#: Words that may stand between two things listed ("the rug and the toaster"; articles and
+#: punctuation are not words here, :func:`hbtp.domains.words.spoken_words`).
+_LISTING = frozenset(("and", "or", "both", "either"))
 
 
 def unspoken_dropped(scenario: Scenario, text: str, goal: str) -> str:
@@ -49,16 +59,92 @@ def unspoken_dropped(scenario: Scenario, text: str, goal: str) -> str:
     return format_goal(kept)
 
 
+def unspoken_listed(scenario: Scenario, text: str, goal: str) -> str:
+    """``goal`` with each unspoken literal about one object that ``text`` lists with an object of a
+    literal it speaks of given that literal's kind (see the module docstring); a goal that does not
+    parse is returned as it is."""
+    try:
+        terms = parse_goal(goal)
+    except InputError:
+        return goal
+    words = words_for(scenario)
+    said = tokens(text)
+    listed = _listed(words, text)
+    mended, moved = [], []
+    for term in terms:
+        new = [_mate_kind(scenario, words, said, listed, literal, term) or literal for literal in term]
+        moved += [f"{old.underscored} -> {now.underscored}" for old, now in zip(term, new, strict=True) if old != now]
+        mended.append(tuple(dict.fromkeys(new)))
+    if not moved:
+        return goal
+    log.info("instruction: %s (a kind of fact the instruction never speaks of, listed)", ", ".join(moved))
+    return format_goal(mended)
+
+
+def _listed(words: Words, text: str) -> set[frozenset[str]]:
+    """The pairs of objects ``text`` names one right after the other, or with "and" / "or" between."""
+    said = spoken_words(text)
+    named = words.named_at(text)
+    return {
+        frozenset((x, y))
+        for (start, width, x), (after, _, y) in pairwise(named)
+        if x != y and set(said[start + width : after]) <= _LISTING
+    }
+
+
+def _mate_kind(
+    scenario: Scenario,
+    words: Words,
+    said: Sequence[str],
+    listed: set[frozenset[str]],
+    literal: Atom,
+    term: Sequence[Atom],
+) -> Atom | None:
+    """The literal of the world that ``literal`` becomes, given the kind of a literal of ``term``
+    about an object listed with its one object; ``None`` unless exactly one offers itself."""
+    objects = objects_of(words, literal)
+    others = {x for other in term if other != literal for x in objects_of(words, other)}
+    if len(objects) != 1 or objects <= others or not _unspoken_kind(words, said, literal):
+        return None
+    (thing,) = objects
+    found = {
+        Atom(other.predicate, (*other.args[:at], thing, *other.args[at + 1 :]), other.negated)
+        for other in term
+        if other != literal and not _unspoken_kind(words, said, other)
+        for at, mate in enumerate(other.args)
+        if frozenset((thing, mate)) in listed
+    }
+    known = [made for made in found if _known(scenario, made)]
+    return known[0] if len(known) == 1 else None
+
+
+def _known(scenario: Scenario, literal: Atom) -> bool:
+    """Whether ``literal``'s atom is one of the world's."""
+    try:
+        scenario.task.atom_id(literal.positive)
+    except InputError:
+        return False
+    return True
+
+
 def _unspoken(words: Words, said: Sequence[str], literal: Atom, term: Sequence[Atom]) -> bool:
     """Whether ``literal`` of the conjunction ``term`` names nothing its other literals do not, and
-    its phrasing, read from the words file, has no run of words that ``said`` says in order."""
-    phrasing = words.phrasing(literal)
+    its kind of fact is never spoken of in ``said`` (:func:`_unspoken_kind`)."""
     objects = objects_of(words, literal)
-    if phrasing.derived or not objects or len(term) < 2:
+    if not objects or len(term) < 2:
         return False
     others = {x for other in term if other != literal for x in objects_of(words, other)}
+    return objects <= others and _unspoken_kind(words, said, literal)
+
+
+def _unspoken_kind(words: Words, said: Sequence[str], literal: Atom) -> bool:
+    """Whether ``literal``'s phrasing, read from the words file, has no run of words that ``said``
+    says in order (a phrasing made up from the PDDL name is never judged)."""
+    phrasing = words.phrasing(literal)
+    if phrasing.derived:
+        return False
     undo = [tokens(SLOT.sub(" ", deed)) for deed in phrasing.undo]
-    return objects <= others and not any(in_order(run, said) for run in (*phrasing_runs(phrasing), *undo))
+    return not any(in_order(run, said) for run in (*phrasing_runs(phrasing), *undo))
 
 
-__all__ = ["unspoken_dropped"]
+__all__ = ["unspoken_dropped", "unspoken_listed"]
