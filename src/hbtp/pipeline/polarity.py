@@ -29,17 +29,14 @@ A literal whose words are derived from its PDDL name is never judged so.
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Sequence
 
 from hbtp.domains.scenarios import Scenario
 from hbtp.domains.words import SLOT, Words, words_for
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
-from hbtp.logic.goals import format_goal, parse_goal
 from hbtp.pipeline.clauses import clauses, in_order, objects_of, phrasing_runs, readings, tokens, world_objects
-
-log = logging.getLogger(__name__)
+from hbtp.pipeline.mend import literals_replaced
 
 #: Negations of a deed or of an unwanted state: the objects and the words follow them.
 _DEED = (("don't",), ("do", "not"), ("never",), ("not", "to"), ("don't", "want"), ("do", "not", "want"))
@@ -64,31 +61,18 @@ def negations_mended(scenario: Scenario, text: str, goal: str) -> str:
     """``goal`` with each positive literal the instruction ``text`` says negated turned into its
     negation, and each negated one it says positive into its atom (see the module docstring), an
     alternative that becomes another kept once; a goal that does not parse is returned as it is."""
-    try:
-        terms = parse_goal(goal)
-    except InputError:
-        return goal
     words = words_for(scenario)
     said = clauses(text)
     world = world_objects(scenario)
-    mended, turned = [], []
-    for term in terms:
-        new = tuple(
-            literal.negate()
-            if said_negated(words, said, literal, world)
-            or (not _at_start(scenario, literal) and said_positive(words, said, literal, world))
-            else literal
-            for literal in term
-        )
-        turned += [literal.underscored for literal, was in zip(new, term, strict=True) if literal != was]
-        mended.append(new)
-    if not turned:
-        return goal
-    log.info("instruction: %s said with the other sign", ", ".join(turned))
-    unique: dict[frozenset[Atom], tuple[Atom, ...]] = {}
-    for term in mended:  # an alternative now twice: once
-        unique.setdefault(frozenset(term), term)
-    return format_goal(list(unique.values()))
+
+    def turned(literal: Atom, _: tuple[Atom, ...]) -> Atom | None:
+        if said_negated(words, said, literal, world):
+            return literal.negate()
+        if not _at_start(scenario, literal) and said_positive(words, said, literal, world):
+            return literal.negate()
+        return None
+
+    return literals_replaced(goal, turned, "said with the other sign")
 
 
 def said_negated(words: Words, clauses: Sequence[tuple[str, ...]], literal: Atom, world: frozenset[str]) -> bool:

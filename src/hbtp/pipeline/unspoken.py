@@ -14,8 +14,12 @@ no other literal holds, and that the instruction lists with an object of another
 it speaks of ("the rug and the toaster", "the chicken, the peach"), takes that literal's kind: "clean
 the rug and the toaster" read as ``IsClean_rug & IsSwitchedOn_toaster`` becomes ``IsClean_rug &
 IsClean_toaster`` (:func:`unspoken_listed`), when exactly one such literal of the world offers
-itself. A predicate whose words are made up from its PDDL name (a world without words) is never
-judged, nor is a literal about no object.
+itself. A positive literal relating two or more things (``IsOn_soap_nightstand``) whose words no
+clause naming just those things says, and no clause that may speak of them by a pronoun, takes
+the one predicate over the same arguments whose words such a clause says, when it makes a literal
+of the world ("... and the bar of soap in the nightstand": ``IsIn_soap_nightstand``;
+:func:`relation_as_said`). A predicate whose words are made up from its PDDL name (a world without
+words) is never judged, nor is a literal about no object.
 """
 
 from __future__ import annotations
@@ -29,7 +33,8 @@ from hbtp.domains.words import SLOT, Words, spoken_words, words_for
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
-from hbtp.pipeline.clauses import in_order, objects_of, phrasing_runs, tokens
+from hbtp.pipeline.clauses import PRONOUNS, clauses, in_order, objects_of, phrasing_runs, tokens, world_objects
+from hbtp.pipeline.mend import literals_replaced
 
 log = logging.getLogger(__name__)
 
@@ -63,22 +68,57 @@ def unspoken_listed(scenario: Scenario, text: str, goal: str) -> str:
     """``goal`` with each unspoken literal about one object that ``text`` lists with an object of a
     literal it speaks of given that literal's kind (see the module docstring); a goal that does not
     parse is returned as it is."""
-    try:
-        terms = parse_goal(goal)
-    except InputError:
-        return goal
     words = words_for(scenario)
     said = tokens(text)
     listed = _listed(words, text)
-    mended, moved = [], []
-    for term in terms:
-        new = [_mate_kind(scenario, words, said, listed, literal, term) or literal for literal in term]
-        moved += [f"{old.underscored} -> {now.underscored}" for old, now in zip(term, new, strict=True) if old != now]
-        mended.append(tuple(dict.fromkeys(new)))
-    if not moved:
-        return goal
-    log.info("instruction: %s (a kind of fact the instruction never speaks of, listed)", ", ".join(moved))
-    return format_goal(mended)
+    return literals_replaced(
+        goal,
+        lambda literal, term: _mate_kind(scenario, words, said, listed, literal, term),
+        "a kind of fact the instruction never speaks of, listed",
+    )
+
+
+def relation_as_said(scenario: Scenario, text: str, goal: str) -> str:
+    """``goal`` with each positive literal relating two things given the kind the instruction's own
+    clause about those two says, where that clause never says its own (see the module docstring);
+    a goal that does not parse is returned as it is."""
+    words = words_for(scenario)
+    said = clauses(text)
+    world = world_objects(scenario)
+    return literals_replaced(
+        goal, lambda literal, _: _said_relation(scenario, words, said, world, literal), "the relation its clause says"
+    )
+
+
+def _said_relation(
+    scenario: Scenario, words: Words, said: Sequence[tuple[str, ...]], world: frozenset[str], literal: Atom
+) -> Atom | None:
+    """The literal of another predicate over ``literal``'s arguments that the clauses naming just its
+    two or more objects say, where they never say ``literal``'s own; ``None`` unless exactly one."""
+    objects = objects_of(words, literal)
+    if literal.negated or len(objects) < 2 or words.phrasing(literal).derived:
+        return None
+    named = [words.named_in(" ".join(clause)) & world for clause in said]
+    own = [clause for clause, these in zip(said, named, strict=True) if these == objects]
+    # a clause that may speak of them by a pronoun ("... or on top of it") may say its own kind
+    near = [clause for clause, these in zip(said, named, strict=True) if these <= objects and PRONOUNS & set(clause)]
+    if not own or any(_says(words, literal, clause) for clause in (*own, *near)):
+        return None
+    arity = len(literal.args)
+    found = {
+        made
+        for predicate, width in scenario.task.predicates.items()
+        if width == arity and predicate != literal.predicate
+        for made in (Atom(predicate, literal.args),)
+        if not words.phrasing(made).derived and any(_says(words, made, clause) for clause in own)
+    }
+    known = [made for made in found if _known(scenario, made)]
+    return known[0] if len(known) == 1 else None
+
+
+def _says(words: Words, literal: Atom, clause: Sequence[str]) -> bool:
+    """Whether ``clause`` has a run of words of ``literal``'s phrasing."""
+    return any(in_order(run, clause) for run in phrasing_runs(words.phrasing(literal)))
 
 
 def _listed(words: Words, text: str) -> set[frozenset[str]]:
@@ -147,4 +187,4 @@ def _unspoken_kind(words: Words, said: Sequence[str], literal: Atom) -> bool:
     return not any(in_order(run, said) for run in (*phrasing_runs(phrasing), *undo))
 
 
-__all__ = ["unspoken_dropped", "unspoken_listed"]
+__all__ = ["relation_as_said", "unspoken_dropped", "unspoken_listed"]
