@@ -32,6 +32,8 @@ _WANTED = (("make", "sure"), ("ensure",), ("see", "to", "it"), ("should",), ("mu
            ("needs", "to"), ("has", "to"), ("have", "to"), ("ought", "to"), ("end", "up"), ("i", "want"),
            ("i'd", "like"), ("i", "would", "like"), ("i", "need"), ("we", "want"), ("we", "need"))  # fmt: skip
 _SENTENCES = re.compile(r"[.!?;:]")
+#: Words that negate, whatever they govern.
+_NEGATING = frozenset(("not", "no", "never", "nothing", "without", "neither", "nor", "none", "nobody", "nowhere"))
 
 
 def clauses(text: str) -> list[tuple[str, ...]]:
@@ -39,6 +41,11 @@ def clauses(text: str) -> list[tuple[str, ...]]:
     "while"), each as its lower-case words, apostrophes kept ("don't"); empty ones left out."""
     cut = (tokens(part) for part in _CLAUSES.split(text) if part)
     return [said for said in cut if said]
+
+
+def negating(said: Iterable[str]) -> bool:
+    """Whether a word of ``said`` negates, whatever it governs (:data:`_NEGATING`, or ends in "n't")."""
+    return any(word in _NEGATING or word.endswith("n't") for word in said)
 
 
 def wanted(text: str) -> list[bool]:

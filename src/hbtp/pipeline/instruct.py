@@ -74,7 +74,7 @@ from hbtp.pipeline.sides import sides_as_said
 from hbtp.pipeline.stand_ins import named_in_place
 from hbtp.pipeline.strangers import asked_about, asked_beside
 from hbtp.pipeline.undone import undone_added
-from hbtp.pipeline.unspoken import relation_as_said, unspoken_dropped, unspoken_listed
+from hbtp.pipeline.unspoken import kind_as_said, unspoken_dropped, unspoken_listed
 from hbtp.planning.regression import stuck
 
 log = logging.getLogger(__name__)
@@ -98,7 +98,7 @@ class InstructOptions:
     #: :func:`hbtp.pipeline.own_state.unasked_own_dropped`; and its literals of a kind of fact the
     #: instruction never speaks of that name nothing new: :func:`hbtp.pipeline.unspoken.unspoken_dropped`
     #: (one about a thing listed with another's first takes its kind: :func:`~hbtp.pipeline.unspoken.unspoken_listed`;
-    #: a relation its clause never says, the one it says: :func:`~hbtp.pipeline.unspoken.relation_as_said`).
+    #: a kind its clause never says, the one it says: :func:`~hbtp.pipeline.unspoken.kind_as_said`).
     drop_unsaid: bool = True
     #: Turn a taught model's positive literal into its negation where the instruction says it negated
     #: ("never turn the temperature down"): :func:`hbtp.pipeline.polarity.negations_mended`; and add
@@ -285,7 +285,7 @@ def _read_against(scenario: Scenario, text: str, proposed: str, *, options: Inst
     place of others (:func:`hbtp.pipeline.stand_ins.named_in_place`), literals about objects it
     does not name left out (:func:`unsaid_dropped`), those of a kind of fact it never speaks of given
     the kind of one about a thing listed with theirs (:func:`hbtp.pipeline.unspoken.unspoken_listed`),
-    relations their own clause never says given the one it says (:func:`hbtp.pipeline.unspoken.relation_as_said`)
+    kinds their own clause never says given the one it says (:func:`hbtp.pipeline.unspoken.kind_as_said`)
     or, naming nothing new, left out (:func:`hbtp.pipeline.unspoken.unspoken_dropped`), literals it says negated negated
     (:func:`hbtp.pipeline.polarity.negations_mended`) and those it says undone added negated
     (:func:`hbtp.pipeline.undone.undone_added`), literals about the robot itself it does not
@@ -296,7 +296,7 @@ def _read_against(scenario: Scenario, text: str, proposed: str, *, options: Inst
         proposed = named_in_place(scenario, text, proposed)
     if options.drop_unsaid:
         proposed = unsaid_dropped(scenario, text, proposed)
-        proposed = unspoken_listed(scenario, text, relation_as_said(scenario, text, proposed))
+        proposed = unspoken_listed(scenario, text, kind_as_said(scenario, text, proposed))
         proposed = unspoken_dropped(scenario, text, proposed)
     if options.mend_negations:
         proposed = undone_added(scenario, text, negations_mended(scenario, text, proposed))

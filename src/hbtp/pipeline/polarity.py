@@ -35,7 +35,16 @@ from hbtp.domains.scenarios import Scenario
 from hbtp.domains.words import SLOT, Words, words_for
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
-from hbtp.pipeline.clauses import clauses, in_order, objects_of, phrasing_runs, readings, tokens, world_objects
+from hbtp.pipeline.clauses import (
+    clauses,
+    in_order,
+    negating,
+    objects_of,
+    phrasing_runs,
+    readings,
+    tokens,
+    world_objects,
+)
 from hbtp.pipeline.mend import literals_replaced
 
 #: Negations of a deed or of an unwanted state: the objects and the words follow them.
@@ -51,8 +60,6 @@ _REPORTING = frozenset(("is", "are", "was", "were", "am", "be", "been", "do", "d
 #: A bare "not" before these words sets a thing aside ("the milk, not the juice").
 _ASIDE = frozenset(("the", "a", "an", "my", "your", "this", "that", "those", "these", "any", "only", "just"))
 _ASKING = (("make", "sure"), ("ensure",), ("see", "to", "it"), ("see", "that"))
-#: Words that negate, whatever they govern: an instruction with none of them negates nothing.
-_NEGATING = frozenset(("not", "no", "never", "nothing", "without", "neither", "nor", "none", "nobody", "nowhere"))
 #: Words after "don't" that soften a request rather than forbid a deed.
 _SOFTENERS = frozenset(("forget", "hesitate", "mind", "fail", "worry", "know", "think", "care", "need"))
 
@@ -121,14 +128,9 @@ def said_positive(words: Words, clauses: Sequence[tuple[str, ...]], literal: Ato
         if objects in readings(named, said, before):
             if any(in_order(run, said) for run in undo):
                 return False
-            positive = positive or (not _negating(said) and any(in_order(run, said) for run in runs))
+            positive = positive or (not negating(said) and any(in_order(run, said) for run in runs))
         before = named or before
     return positive
-
-
-def _negating(said: Sequence[str]) -> bool:
-    """Whether a word of ``said`` negates (:data:`_NEGATING`, or ends in "n't")."""
-    return any(word in _NEGATING or word.endswith("n't") for word in said)
 
 
 def _at_start(scenario: Scenario, literal: Atom) -> bool:

@@ -14,11 +14,14 @@ no other literal holds, and that the instruction lists with an object of another
 it speaks of ("the rug and the toaster", "the chicken, the peach"), takes that literal's kind: "clean
 the rug and the toaster" read as ``IsClean_rug & IsSwitchedOn_toaster`` becomes ``IsClean_rug &
 IsClean_toaster`` (:func:`unspoken_listed`), when exactly one such literal of the world offers
-itself. A positive literal relating two or more things (``IsOn_soap_nightstand``) whose words no
-clause naming just those things says, and no clause that may speak of them by a pronoun, takes
-the one predicate over the same arguments whose words such a clause says, when it makes a literal
-of the world ("... and the bar of soap in the nightstand": ``IsIn_soap_nightstand``;
-:func:`relation_as_said`). A predicate whose words are made up from its PDDL name (a world without
+itself. A positive literal whose words no clause naming its things says (not one naming just them
+nor with others, nor one that may speak of them by a pronoun) takes the one predicate over the same
+arguments whose words a clause naming just those things says, when it makes a literal of the world
+("... and the bar of soap in the nightstand": ``IsOn_soap_nightstand`` becomes
+``IsIn_soap_nightstand``; :func:`kind_as_said`). For a literal about one thing the pieces are
+spans, lists kept whole ("turn off the TV, then ...": ``IsSwitchedOn_tv`` becomes
+``IsSwitchedOff_tv``); a piece with a negation word, or that only names things (an item of a list),
+leaves the literal as it is. A predicate whose words are made up from its PDDL name (a world without
 words) is never judged, nor is a literal about no object.
 """
 
@@ -33,7 +36,17 @@ from hbtp.domains.words import SLOT, Words, spoken_words, words_for
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
-from hbtp.pipeline.clauses import PRONOUNS, clauses, in_order, objects_of, phrasing_runs, tokens, world_objects
+from hbtp.pipeline.clauses import (
+    PRONOUNS,
+    clauses,
+    in_order,
+    negating,
+    objects_of,
+    phrasing_runs,
+    spans,
+    tokens,
+    world_objects,
+)
 from hbtp.pipeline.mend import literals_replaced
 
 log = logging.getLogger(__name__)
@@ -78,31 +91,42 @@ def unspoken_listed(scenario: Scenario, text: str, goal: str) -> str:
     )
 
 
-def relation_as_said(scenario: Scenario, text: str, goal: str) -> str:
-    """``goal`` with each positive literal relating two things given the kind the instruction's own
-    clause about those two says, where that clause never says its own (see the module docstring);
-    a goal that does not parse is returned as it is."""
+def kind_as_said(scenario: Scenario, text: str, goal: str) -> str:
+    """``goal`` with each positive literal given the kind the instruction's own clause (span, for a
+    literal about one thing) about its things says, where that never says its own (see the module
+    docstring); a goal that does not parse is returned as it is."""
     words = words_for(scenario)
-    said = clauses(text)
+    cuts = (clauses(text), spans(text))
     world = world_objects(scenario)
-    return literals_replaced(
-        goal, lambda literal, _: _said_relation(scenario, words, said, world, literal), "the relation its clause says"
-    )
+
+    def said_instead(literal: Atom, _: tuple[Atom, ...]) -> Atom | None:
+        objects = objects_of(words, literal)
+        if literal.negated or not objects or words.phrasing(literal).derived:
+            return None
+        return _said_kind(scenario, words, cuts[len(objects) == 1], world, literal)
+
+    return literals_replaced(goal, said_instead, "the kind its clause says")
 
 
-def _said_relation(
+def _said_kind(
     scenario: Scenario, words: Words, said: Sequence[tuple[str, ...]], world: frozenset[str], literal: Atom
 ) -> Atom | None:
-    """The literal of another predicate over ``literal``'s arguments that the clauses naming just its
-    two or more objects say, where they never say ``literal``'s own; ``None`` unless exactly one."""
+    """The literal of another predicate over ``literal``'s arguments that the pieces of ``said``
+    naming just its objects say, where they never say ``literal``'s own; ``None`` unless exactly one."""
     objects = objects_of(words, literal)
-    if literal.negated or len(objects) < 2 or words.phrasing(literal).derived:
-        return None
     named = [words.named_in(" ".join(clause)) & world for clause in said]
     own = [clause for clause, these in zip(said, named, strict=True) if these == objects]
-    # a clause that may speak of them by a pronoun ("... or on top of it") may say its own kind
-    near = [clause for clause, these in zip(said, named, strict=True) if these <= objects and PRONOUNS & set(clause)]
-    if not own or any(_says(words, literal, clause) for clause in (*own, *near)):
+    # "make sure the TV isn't off"; "the TV, the mouse and the radio plugged in": an item of a list
+    if any(negating(clause) or _bare(words, clause) for clause in own):
+        return None
+    # its own kind may be said where they are named beside others ("the fridge and the TV plugged
+    # in") or by a pronoun ("... or on top of it")
+    near = [
+        clause
+        for clause, these in zip(said, named, strict=True)
+        if objects <= these or (these <= objects and PRONOUNS & set(clause))
+    ]
+    if not own or any(_says(words, literal, clause) for clause in near):
         return None
     arity = len(literal.args)
     found = {
@@ -114,6 +138,13 @@ def _said_relation(
     }
     known = [made for made in found if _known(scenario, made)]
     return known[0] if len(known) == 1 else None
+
+
+def _bare(words: Words, clause: Sequence[str]) -> bool:
+    """Whether ``clause`` says nothing but the names of things (articles and "and", "or" aside)."""
+    text = " ".join(clause)
+    said = spoken_words(text)
+    return len(said) == sum(width for _, width, _ in words.named_at(text)) + sum(w in _LISTING for w in said)
 
 
 def _says(words: Words, literal: Atom, clause: Sequence[str]) -> bool:
@@ -187,4 +218,4 @@ def _unspoken_kind(words: Words, said: Sequence[str], literal: Atom) -> bool:
     return not any(in_order(run, said) for run in (*phrasing_runs(phrasing), *undo))
 
 
-__all__ = ["relation_as_said", "unspoken_dropped", "unspoken_listed"]
+__all__ = ["kind_as_said", "unspoken_dropped", "unspoken_listed"]
