@@ -95,6 +95,8 @@ def test_a_literal_of_a_kind_never_spoken_of_takes_the_kind_of_a_thing_listed_wi
          "IsPlugged_tv & IsSwitchedOn_tv", "IsPlugged_tv & IsSwitchedOn_tv"),
         ("Pull the fridge open. The fridge and the TV should end up plugged in.",
          "IsOpen_fridge & IsPlugged_fridge & IsPlugged_tv", "IsOpen_fridge & IsPlugged_fridge & IsPlugged_tv"),
+        ("Get the microwave, the fridge and the window open, then switch the microwave on.",
+         "IsOpen_microwave & IsSwitchedOn_microwave", "IsOpen_microwave & IsSwitchedOn_microwave"),  # a list going on
     ],
 )  # fmt: skip
 def test_a_kind_its_own_clause_never_says_takes_the_one_it_says(text: str, goal: str, read: str) -> None:

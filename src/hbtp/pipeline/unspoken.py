@@ -126,6 +126,12 @@ def _said_kind(
         for clause, these in zip(said, named, strict=True)
         if objects <= these or (these <= objects and PRONOUNS & set(clause))
     ]
+    # "get the microwave, the dishwasher and the stove open": a list goes on in the next piece
+    near += [
+        after
+        for clause, after in pairwise(said)
+        if _ends_naming(words, clause, objects) and _starts_naming(words, after)
+    ]
     if not own or any(_says(words, literal, clause) for clause in near):
         return None
     arity = len(literal.args)
@@ -138,6 +144,19 @@ def _said_kind(
     }
     known = [made for made in found if _known(scenario, made)]
     return known[0] if len(known) == 1 else None
+
+
+def _ends_naming(words: Words, clause: Sequence[str], objects: set[str]) -> bool:
+    """Whether ``clause`` ends with a name of one of ``objects``."""
+    text = " ".join(clause)
+    named = words.named_at(text)
+    return bool(named) and named[-1][2] in objects and sum(named[-1][:2]) == len(spoken_words(text))
+
+
+def _starts_naming(words: Words, clause: Sequence[str]) -> bool:
+    """Whether ``clause`` begins with a name of a thing (articles aside)."""
+    named = words.named_at(" ".join(clause))
+    return bool(named) and named[0][0] == 0
 
 
 def _bare(words: Words, clause: Sequence[str]) -> bool:
