@@ -3,6 +3,8 @@ the verbaliser wrote (never the instruction dataset) with their goals."""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+
 from hbtp.domains import Scenario
 from hbtp.llm.backend import PromptStyle, Reply, Request
 from hbtp.train.example_set import make_examples
@@ -37,3 +39,10 @@ def verbalised(world: Scenario, goals: int, seed: int) -> list[tuple[str, str]]:
         for example in (*examples.train, *examples.held_out)
         if example.kind is ExampleKind.GOAL and not example.reply.strip().startswith("Unknown")
     ]
+
+
+def changed_by(
+    check: Callable[[Scenario, str, str], str], world: Scenario, said: Sequence[tuple[str, str]]
+) -> list[tuple[str, str]]:
+    """The instructions of ``said`` (with their goals) whose goal ``check`` reads otherwise."""
+    return [(text, goal) for text, goal in said if check(world, text, goal) != goal]

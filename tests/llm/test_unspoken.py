@@ -8,7 +8,7 @@ import random
 from pathlib import Path
 
 import pytest
-from scripted import Taught, verbalised
+from scripted import Taught, changed_by, verbalised
 
 from hbtp.domains import Scenario, load_scenario
 from hbtp.domains.scenarios import ScenarioOptions, load_pddl_scenario
@@ -124,9 +124,9 @@ def test_generated_instructions_keep_their_literals() -> None:
         world = load_scenario(name)
         said = verbalised(world, 120, seed=13)
         assert len([goal for _, goal in said if "&" in goal]) >= 20
-        assert [(text, goal) for text, goal in said if unspoken_dropped(world, text, goal) != goal] == []
-        assert [(text, goal) for text, goal in said if unspoken_listed(world, text, goal) != goal] == []
-        assert [(text, goal) for text, goal in said if kind_as_said(world, text, goal) != goal] == []
+        assert changed_by(unspoken_dropped, world, said) == []
+        assert changed_by(unspoken_listed, world, said) == []
+        assert changed_by(kind_as_said, world, said) == []
 
 
 def test_a_taught_models_goal_is_read_without_a_literal_never_spoken_of() -> None:

@@ -8,7 +8,7 @@ import re
 from collections.abc import Iterable, Sequence
 
 from hbtp.domains.scenarios import Scenario
-from hbtp.domains.words import COPULA, SLOT, Phrasing, Words
+from hbtp.domains.words import COPULA, SLOT, Phrasing, Words, spoken_words
 from hbtp.llm.goal_prompt import PLACEHOLDERS
 from hbtp.logic.atoms import Atom
 
@@ -26,6 +26,9 @@ _PARTICLES = frozenset(("on", "off", "up", "down", "in", "out"))
 #: Words too plain to say a state or a deed on their own ("the tv is on", "bring it to the bar").
 PLAIN = frozenset(("on", "in", "to", "at", "of", "up", "off", "into", "onto", "by", "with", "from", "for", "top"))
 PRONOUNS = frozenset(("it", "them", "they"))
+#: Words that may stand between two things listed ("the rug and the toaster"; articles and
+#: punctuation are not words here, :func:`hbtp.domains.words.spoken_words`).
+LISTING = frozenset(("and", "or", "both", "either"))
 #: Words that ask for a state of what the rest of their sentence says ("make sure the X is on the Y",
 #: "the X must be on the Y", "I'd like the X on the Y"): a thing there is wanted where it is placed.
 _WANTED = (("make", "sure"), ("ensure",), ("see", "to", "it"), ("should",), ("must",), ("need", "to"),
@@ -73,6 +76,39 @@ def spans(text: str) -> list[tuple[str, ...]]:
     return [said for said in cut if said]
 
 
+def ends_naming(words: Words, said: Sequence[str]) -> str | None:
+    """The thing whose name the words ``said`` end with, if they do."""
+    text = " ".join(said)
+    named = words.named_at(text)
+    return named[-1][2] if named and sum(named[-1][:2]) == len(spoken_words(text)) else None
+
+
+def starts_naming(words: Words, said: Sequence[str]) -> bool:
+    """Whether the words ``said`` begin with a name of a thing (articles aside)."""
+    named = words.named_at(" ".join(said))
+    return bool(named) and named[0][0] == 0
+
+
+def list_spans(words: Words, text: str) -> list[tuple[str, ...]]:
+    """The :func:`spans` of ``text``, a list cut by commas kept whole too: a span after a comma that
+    begins with a name of a thing joins the one before when that ends with one ("put the bread, the
+    book and the glass on the desk")."""
+    pieces = re.split(f"({_SPANS.pattern})", text)  # pieces and their cuts, one after the other
+    joined: list[tuple[str, ...]] = []
+    comma = False
+    for at, part in enumerate(pieces):
+        said = tokens(part or "") if at % 2 == 0 else ()
+        if at % 2:
+            comma = comma or part == ","
+        elif said and comma and joined and ends_naming(words, joined[-1]) is not None and starts_naming(words, said):
+            joined[-1] += said
+            comma = False
+        elif said:
+            joined.append(said)
+            comma = False
+    return joined
+
+
 def readings(named: frozenset[str], said: Sequence[str], before: frozenset[str]) -> list[frozenset[str]]:
     """The objects words that name ``named`` may be about: those, and, when they say "it" or "them",
     those and one of ``before`` (named in the last clause that named any)."""
@@ -96,6 +132,12 @@ def phrasing_runs(phrasing: Phrasing) -> list[tuple[str, ...]]:
         texts.append(match.group(3) if match else state)
     runs = [tuple(w for w in tokens(SLOT.sub(" ", text)) if w not in _FRAMES) for text in texts]
     return list(dict.fromkeys(run for run in runs if run))
+
+
+def says(words: Words, literal: Atom, said: Iterable[str]) -> bool:
+    """Whether the words ``said`` hold, in order, a run of words of ``literal``'s phrasing
+    (:func:`phrasing_runs`)."""
+    return any(in_order(run, said) for run in phrasing_runs(words.phrasing(literal)))
 
 
 def in_order(run: tuple[str, ...], said: Iterable[str]) -> bool:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 
+from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
@@ -14,6 +15,15 @@ log = logging.getLogger(__name__)
 
 #: Given a literal and its conjunction, the literal to put in its place, or ``None`` to keep it.
 Replacement = Callable[[Atom, tuple[Atom, ...]], Atom | None]
+
+
+def known(scenario: Scenario, literal: Atom) -> bool:
+    """Whether ``literal``'s atom is one of ``scenario``'s: a literal a replacement may give."""
+    try:
+        scenario.task.atom_id(literal.positive)
+    except InputError:
+        return False
+    return True
 
 
 def literals_replaced(goal: str, replacement: Replacement, why: str) -> str:
@@ -37,4 +47,4 @@ def literals_replaced(goal: str, replacement: Replacement, why: str) -> str:
     return format_goal(list(mended.values()))
 
 
-__all__ = ["Replacement", "literals_replaced"]
+__all__ = ["Replacement", "known", "literals_replaced"]

@@ -37,23 +37,23 @@ from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
 from hbtp.pipeline.clauses import (
+    LISTING,
     PRONOUNS,
     clauses,
+    ends_naming,
     in_order,
     negating,
     objects_of,
     phrasing_runs,
+    says,
     spans,
+    starts_naming,
     tokens,
     world_objects,
 )
-from hbtp.pipeline.mend import literals_replaced
+from hbtp.pipeline.mend import known, literals_replaced
 
 log = logging.getLogger(__name__)
-
-#: Words that may stand between two things listed ("the rug and the toaster"; articles and
-#: punctuation are not words here, :func:`hbtp.domains.words.spoken_words`).
-_LISTING = frozenset(("and", "or", "both", "either"))
 
 
 def unspoken_dropped(scenario: Scenario, text: str, goal: str) -> str:
@@ -130,9 +130,9 @@ def _said_kind(
     near += [
         after
         for clause, after in pairwise(said)
-        if _ends_naming(words, clause, objects) and _starts_naming(words, after)
+        if ends_naming(words, clause) in objects and starts_naming(words, after)
     ]
-    if not own or any(_says(words, literal, clause) for clause in near):
+    if not own or any(says(words, literal, clause) for clause in near):
         return None
     arity = len(literal.args)
     found = {
@@ -140,35 +140,17 @@ def _said_kind(
         for predicate, width in scenario.task.predicates.items()
         if width == arity and predicate != literal.predicate
         for made in (Atom(predicate, literal.args),)
-        if not words.phrasing(made).derived and any(_says(words, made, clause) for clause in own)
+        if not words.phrasing(made).derived and any(says(words, made, clause) for clause in own)
     }
-    known = [made for made in found if _known(scenario, made)]
-    return known[0] if len(known) == 1 else None
-
-
-def _ends_naming(words: Words, clause: Sequence[str], objects: set[str]) -> bool:
-    """Whether ``clause`` ends with a name of one of ``objects``."""
-    text = " ".join(clause)
-    named = words.named_at(text)
-    return bool(named) and named[-1][2] in objects and sum(named[-1][:2]) == len(spoken_words(text))
-
-
-def _starts_naming(words: Words, clause: Sequence[str]) -> bool:
-    """Whether ``clause`` begins with a name of a thing (articles aside)."""
-    named = words.named_at(" ".join(clause))
-    return bool(named) and named[0][0] == 0
+    fits = [made for made in found if known(scenario, made)]
+    return fits[0] if len(fits) == 1 else None
 
 
 def _bare(words: Words, clause: Sequence[str]) -> bool:
     """Whether ``clause`` says nothing but the names of things (articles and "and", "or" aside)."""
     text = " ".join(clause)
     said = spoken_words(text)
-    return len(said) == sum(width for _, width, _ in words.named_at(text)) + sum(w in _LISTING for w in said)
-
-
-def _says(words: Words, literal: Atom, clause: Sequence[str]) -> bool:
-    """Whether ``clause`` has a run of words of ``literal``'s phrasing."""
-    return any(in_order(run, clause) for run in phrasing_runs(words.phrasing(literal)))
+    return len(said) == sum(width for _, width, _ in words.named_at(text)) + sum(w in LISTING for w in said)
 
 
 def _listed(words: Words, text: str) -> set[frozenset[str]]:
@@ -178,7 +160,7 @@ def _listed(words: Words, text: str) -> set[frozenset[str]]:
     return {
         frozenset((x, y))
         for (start, width, x), (after, _, y) in pairwise(named)
-        if x != y and set(said[start + width : after]) <= _LISTING
+        if x != y and set(said[start + width : after]) <= LISTING
     }
 
 
@@ -204,17 +186,8 @@ def _mate_kind(
         for at, mate in enumerate(other.args)
         if frozenset((thing, mate)) in listed
     }
-    known = [made for made in found if _known(scenario, made)]
-    return known[0] if len(known) == 1 else None
-
-
-def _known(scenario: Scenario, literal: Atom) -> bool:
-    """Whether ``literal``'s atom is one of the world's."""
-    try:
-        scenario.task.atom_id(literal.positive)
-    except InputError:
-        return False
-    return True
+    fits = [made for made in found if known(scenario, made)]
+    return fits[0] if len(fits) == 1 else None
 
 
 def _unspoken(words: Words, said: Sequence[str], literal: Atom, term: Sequence[Atom]) -> bool:
