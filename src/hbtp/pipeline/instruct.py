@@ -17,9 +17,11 @@ what already holds (a goal asked for again would only drift from what was meant)
 the world may refuse itself: an instruction that names what the world lacks is answered with what
 it lacks (:func:`hbtp.llm.goal_prompt.refusal_of`), and that is the error, unless the refusal
 cannot stand (:func:`false_refusal`: the instruction does not say the thing, or the world has an
-object called so), when the model is asked again with refusals not offered; in its answer, an
+object called so), when the model is asked again with refusals not offered; in its answer, a thing
+said short or by a part is the thing meant (:mod:`hbtp.pipeline.referents`), an
 object the instruction names and the goal leaves out takes the place of one it never names
-(:mod:`hbtp.pipeline.stand_ins`); the answer loses the
+(:mod:`hbtp.pipeline.stand_ins`), a literal about two things never named together takes what the
+instruction says of them (:mod:`hbtp.pipeline.apart`); the answer loses the
 literals about objects the instruction never names, when others are about objects it names
 (:func:`unsaid_dropped`), and its literals about the robot itself that the instruction does not ask
 for (:mod:`hbtp.pipeline.own_state`), and a literal it wrote positive where the instruction says it negated
@@ -66,10 +68,12 @@ from hbtp.llm.goal_prompt import (
 )
 from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
+from hbtp.pipeline.apart import apart_mended
 from hbtp.pipeline.clauses import has_twin, objects_of, spoken_objects
 from hbtp.pipeline.grouping import regrouped
 from hbtp.pipeline.own_state import unasked_own_dropped
 from hbtp.pipeline.polarity import negations_mended
+from hbtp.pipeline.referents import referents_read
 from hbtp.pipeline.sides import sides_as_said
 from hbtp.pipeline.stand_ins import named_in_place
 from hbtp.pipeline.strangers import asked_about, asked_beside
@@ -98,7 +102,9 @@ class InstructOptions:
     #: :func:`hbtp.pipeline.own_state.unasked_own_dropped`; and its literals of a kind of fact the
     #: instruction never speaks of that name nothing new: :func:`hbtp.pipeline.unspoken.unspoken_dropped`
     #: (one about a thing listed with another's first takes its kind: :func:`~hbtp.pipeline.unspoken.unspoken_listed`;
-    #: a kind its clause never says, the one it says: :func:`~hbtp.pipeline.unspoken.kind_as_said`).
+    #: a kind its clause never says, the one it says: :func:`~hbtp.pipeline.unspoken.kind_as_said`;
+    #: a literal about two things never named together, what is said of them:
+    #: :func:`hbtp.pipeline.apart.apart_mended`).
     drop_unsaid: bool = True
     #: Turn a taught model's positive literal into its negation where the instruction says it negated
     #: ("never turn the temperature down"): :func:`hbtp.pipeline.polarity.negations_mended`; and add
@@ -106,7 +112,8 @@ class InstructOptions:
     mend_negations: bool = True
     #: Put an object the instruction names and a taught model's goal leaves out in the place of one
     #: it never names ("Bright table 6 ..." read as ``On_MilkDrink_Table1``):
-    #: :func:`hbtp.pipeline.stand_ins.named_in_place`.
+    #: :func:`hbtp.pipeline.stand_ins.named_in_place`; and read a thing said short or by a part as
+    #: the thing meant ("the cabinet door"): :func:`hbtp.pipeline.referents.referents_read`.
     place_named: bool = True
     #: Group a taught model's alternatives as the instruction joins their objects ("the juice or a
     #: soft drink" read with ``&``): :func:`hbtp.pipeline.grouping.regrouped`; and take its choices of
@@ -281,8 +288,11 @@ def goal_from_instruction(
 
 
 def _read_against(scenario: Scenario, text: str, proposed: str, *, options: InstructOptions) -> str:
-    """A taught model's goal read against the words of its instruction: objects it names put in the
-    place of others (:func:`hbtp.pipeline.stand_ins.named_in_place`), literals about objects it
+    """A taught model's goal read against the words of its instruction: things said short or by a
+    part read as the things meant (:func:`hbtp.pipeline.referents.referents_read`), objects it names
+    put in the place of others (:func:`hbtp.pipeline.stand_ins.named_in_place`), literals about
+    two things it never names together given what it says of them
+    (:func:`hbtp.pipeline.apart.apart_mended`), literals about objects it
     does not name left out (:func:`unsaid_dropped`), those of a kind of fact it never speaks of given
     the kind of one about a thing listed with theirs (:func:`hbtp.pipeline.unspoken.unspoken_listed`),
     kinds their own clause never says given the one it says (:func:`hbtp.pipeline.unspoken.kind_as_said`)
@@ -293,10 +303,11 @@ def _read_against(scenario: Scenario, text: str, proposed: str, *, options: Inst
     the sides of its "or" (:func:`hbtp.pipeline.sides.sides_as_said`) and grouped as it joins their
     objects (:func:`hbtp.pipeline.grouping.regrouped`)."""
     if options.place_named:
-        proposed = named_in_place(scenario, text, proposed)
+        proposed = named_in_place(scenario, text, referents_read(scenario, text, proposed))
     if options.drop_unsaid:
         proposed = unsaid_dropped(scenario, text, proposed)
-        proposed = unspoken_listed(scenario, text, kind_as_said(scenario, text, proposed))
+        proposed = apart_mended(scenario, text, kind_as_said(scenario, text, proposed))
+        proposed = unspoken_listed(scenario, text, proposed)
         proposed = unspoken_dropped(scenario, text, proposed)
     if options.mend_negations:
         proposed = undone_added(scenario, text, negations_mended(scenario, text, proposed))
