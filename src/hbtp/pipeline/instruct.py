@@ -29,7 +29,9 @@ becomes its negation (:mod:`hbtp.pipeline.polarity`), as does one it says undone
 :mod:`hbtp.pipeline.undone`), and its alternatives are grouped as the
 instruction joins their objects (:mod:`hbtp.pipeline.grouping`). A completion-style model's accepted
 conjunction is then extended with a literal for each object the instruction names and the goal
-leaves out (asked as a continuation of its own goal; a literal that draws an objection is dropped).
+leaves out (asked as a continuation of its own goal; a literal that draws an objection is dropped),
+and a taught model's, with a literal for each clause that asks for one it leaves out ("... and run
+it": :mod:`hbtp.pipeline.deeds`; the one the clause says, or the model's choice of several).
 A goal is refused when it stands in for a thing the instruction names that the world lacks
 (:func:`substituted`), or leaves out such a thing the instruction asks about
 (:mod:`hbtp.pipeline.strangers`). An instruction that names no object of the domain and shares no
@@ -51,7 +53,7 @@ from hbtp.deadline import Deadline, expired
 from hbtp.domains.scenarios import Scenario
 from hbtp.domains.words import Words, spoken_words, words_for
 from hbtp.errors import BackendTimeLimit, InputError
-from hbtp.llm.backend import Backend, PromptStyle, Request
+from hbtp.llm.backend import Backend, PromptStyle, Reply, Request
 from hbtp.llm.goal_prompt import (
     STOPWORDS,
     Connectives,
@@ -70,6 +72,7 @@ from hbtp.logic.atoms import Atom
 from hbtp.logic.goals import format_goal, parse_goal
 from hbtp.pipeline.apart import apart_mended
 from hbtp.pipeline.clauses import has_twin, objects_of, spoken_objects
+from hbtp.pipeline.deeds import unanswered
 from hbtp.pipeline.grouping import regrouped
 from hbtp.pipeline.own_state import unasked_own_dropped
 from hbtp.pipeline.polarity import negations_mended
@@ -457,7 +460,8 @@ def _cover(
     and ``by_words`` (a taught model) also by the world's words for them; ``read`` reads each longer
     goal against the instruction as the model's first answer was (:func:`_read_against`: the
     continuation offers positive literals only, so one the instruction says negated is negated; a
-    literal about the robot it does not ask for goes); a literal it leaves out is not added.
+    literal about the robot it does not ask for goes); a literal it leaves out is not added. With
+    ``read``, the deeds the instruction asks for and the goal leaves out follow (:func:`_answer_deeds`).
     Returns the model's time."""
     terms = parse_goal(attempts[-1].goal)
     goal = format_goal(terms)  # "A | A" is one alternative: the literal joins all of it
@@ -486,6 +490,48 @@ def _cover(
             verdict = Verdict((f"{literal}: not what the instruction says" if literal else "no literal in the reply",))
         else:
             verdict = check_goal(scenario, longer)
+        attempts.append(
+            GoalAttempt(len(attempts), reply.text, longer, verdict.objections, verdict.doubtful, reply.seconds)
+        )
+        if not verdict.objections:
+            goal = longer
+    if read is not None and attempts[-1].accepted:
+        spent += _answer_deeds(scenario, text, backend, request, attempts, deadline, read)
+    return spent
+
+
+def _answer_deeds(
+    scenario: Scenario,
+    text: str,
+    backend: Backend,
+    request: Request,
+    attempts: list[GoalAttempt],
+    deadline: Deadline | None,
+    read: Callable[[str], str],
+) -> float:
+    """Extend a taught model's accepted conjunction with a literal for each clause that asks for one
+    it leaves out (:func:`hbtp.pipeline.deeds.unanswered`): the one the clause says, or the model's
+    choice of several; read against the instruction and checked as :func:`_cover` does. Returns the
+    model's time."""
+    goal = attempts[-1].goal
+    terms = parse_goal(goal)
+    if len(terms) != 1:
+        return 0.0
+    spent = 0.0
+    for offered in unanswered(scenario, text, terms[0]):
+        offered = tuple(a for a in offered if a not in parse_goal(goal)[0])
+        if not offered or expired(deadline):
+            continue
+        reply = Reply(offered[0].underscored, seconds=0.0)
+        if len(offered) > 1:
+            try:
+                reply = backend.complete(continuation_request(request, goal, offered, scenario.task.categories))
+            except BackendTimeLimit:
+                break
+        spent += reply.seconds
+        literal = goal_reply(reply.text)
+        longer = read(f"{goal} & {literal}") if literal else goal
+        verdict = check_goal(scenario, longer) if longer != goal else Verdict((f"{literal}: not what is asked",))
         attempts.append(
             GoalAttempt(len(attempts), reply.text, longer, verdict.objections, verdict.doubtful, reply.seconds)
         )

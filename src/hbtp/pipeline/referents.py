@@ -36,7 +36,7 @@ def referents_read(scenario: Scenario, text: str, goal: str) -> str:
     says with its thing, read about the thing meant (see the module docstring); a goal that does not
     parse is returned as it is."""
     words = words_for(scenario)
-    short, owned = _meant(words, text, world_objects(scenario))
+    short, owned = said_short(words, text, world_objects(scenario))
     if not short and not owned:
         return goal
 
@@ -49,7 +49,7 @@ def referents_read(scenario: Scenario, text: str, goal: str) -> str:
     return literals_replaced(goal, read, "a thing said short or by a part")
 
 
-def _meant(words: Words, text: str, world: frozenset[str]) -> tuple[Mapping[str, str], Mapping[str, str]]:
+def said_short(words: Words, text: str, world: frozenset[str]) -> tuple[Mapping[str, str], Mapping[str, str]]:
     """The things ``text`` says short for another, each with the thing meant; and the parts it says
     with a thing and the things it says short only as the owners of parts, each with the thing
     meant."""
@@ -84,4 +84,4 @@ def _meant(words: Words, text: str, world: frozenset[str]) -> tuple[Mapping[str,
     return short, owned
 
 
-__all__ = ["referents_read"]
+__all__ = ["referents_read", "said_short"]
