@@ -482,19 +482,7 @@ def _cover(
         except BackendTimeLimit:
             break
         spent += reply.seconds
-        literal = goal_reply(reply.text)
-        longer = f"{goal} & {literal}" if literal else goal
-        if literal and read is not None:
-            longer = read(longer)
-        if not literal or longer == goal:
-            verdict = Verdict((f"{literal}: not what the instruction says" if literal else "no literal in the reply",))
-        else:
-            verdict = check_goal(scenario, longer)
-        attempts.append(
-            GoalAttempt(len(attempts), reply.text, longer, verdict.objections, verdict.doubtful, reply.seconds)
-        )
-        if not verdict.objections:
-            goal = longer
+        goal = _continued(scenario, goal, reply, read, attempts)
     if read is not None and attempts[-1].accepted:
         spent += _answer_deeds(scenario, text, backend, request, attempts, deadline, read)
     return spent
@@ -529,15 +517,25 @@ def _answer_deeds(
             except BackendTimeLimit:
                 break
         spent += reply.seconds
-        literal = goal_reply(reply.text)
-        longer = read(f"{goal} & {literal}") if literal else goal
-        verdict = check_goal(scenario, longer) if longer != goal else Verdict((f"{literal}: not what is asked",))
-        attempts.append(
-            GoalAttempt(len(attempts), reply.text, longer, verdict.objections, verdict.doubtful, reply.seconds)
-        )
-        if not verdict.objections:
-            goal = longer
+        goal = _continued(scenario, goal, reply, read, attempts)
     return spent
+
+
+def _continued(
+    scenario: Scenario, goal: str, reply: Reply, read: Callable[[str], str] | None, attempts: list[GoalAttempt]
+) -> str:
+    """``goal`` and the literal of ``reply``, read with ``read`` and checked, recorded in ``attempts``;
+    ``goal`` as it was when the longer goal draws an objection (or reads as ``goal``)."""
+    literal = goal_reply(reply.text)
+    longer = f"{goal} & {literal}" if literal else goal
+    if literal and read is not None:
+        longer = read(longer)
+    if not literal or longer == goal:
+        verdict = Verdict((f"{literal}: not what the instruction says" if literal else "no literal in the reply",))
+    else:
+        verdict = check_goal(scenario, longer)
+    attempts.append(GoalAttempt(len(attempts), reply.text, longer, verdict.objections, verdict.doubtful, reply.seconds))
+    return goal if verdict.objections else longer
 
 
 def _relevant(scenario: Scenario, text: str, pool: Sequence[Example]) -> bool:
