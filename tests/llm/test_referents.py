@@ -48,6 +48,19 @@ def test_a_thing_said_short_or_by_a_part_is_the_thing_meant(text: str, goal: str
 
 
 @pytest.mark.parametrize(
+    ("text", "goal"),
+    [
+        # "there" speaks of the place named before
+        ("I'll be at table 2 in a minute; could you have a coffee waiting there?", "On_Coffee_Table2 & Holding_Coffee"),
+        # the span about just one of its things says where the robot should be: not a state of the thing
+        ("I'll be at the bar soon. A coffee, please!", "On_Coffee_Bar & Holding_Coffee"),
+    ],
+)  # fmt: skip
+def test_a_place_said_there_or_a_fact_about_the_robot_keeps_the_literal(text: str, goal: str) -> None:
+    assert apart_mended(load_scenario("robowaiter"), text, goal) == goal
+
+
+@pytest.mark.parametrize(
     ("text", "goal", "read"),
     [
         # the clause that says the kind names one of its things and one more: that one

@@ -5,8 +5,8 @@ A taught model reading a long instruction now and then ties a thing of one claus
 another. A positive literal about two things is *apart* when both are named and no span of the
 instruction names both (:func:`hbtp.pipeline.clauses.list_spans`: cut at punctuation, "but",
 "then", "so", "while"; lists kept whole, across commas too), nor one of them and, by "it" or
-"them", the other one named in the span before (:func:`hbtp.pipeline.clauses.readings`). Such a
-literal becomes
+"them" (or "there"), the other one named in the span before (:func:`hbtp.pipeline.clauses.readings`).
+Such a literal becomes
 
 * the same kind about the thing kept and the other thing of the one clause that says its kind, in
   words not all plain ("put ... on", not "on": "... with the milk beside the plate on the table"
@@ -14,7 +14,8 @@ literal becomes
   the frying pan, put the pan on the stove": ``IsOn_pancake_stove`` becomes
   ``IsOn_fryingpan_stove``), else
 * the one kind about one thing that the spans naming just one of its things say ("make sure the
-  candle is off": ``IsSwitchedOff_candle``), when no span of those negates;
+  candle is off": ``IsSwitchedOff_candle``), when no span of those negates, and not a fact about
+  the robot itself;
 
 when it makes a literal of the world that its conjunction does not hold yet, and whose thing left
 out another literal of the conjunction holds (nothing named is lost), and exactly one does.
@@ -75,11 +76,11 @@ def apart_mended(scenario: Scenario, text: str, goal: str) -> str:
 
 def _together(pieces: Sequence[tuple[tuple[str, ...], frozenset[str]]]) -> list[frozenset[str]]:
     """The sets of things each piece may be about: those it names, with one named in the piece
-    before when it says "it" or "them"."""
+    before when it says "it", "them" or "there" ("... at the bar; have a dessert waiting there")."""
     found: list[frozenset[str]] = []
     before: frozenset[str] = frozenset()
     for said, named in pieces:
-        found += readings(named, said, before)
+        found += readings(named, tuple("it" if word == "there" else word for word in said), before)
         before = named or before
     return found
 
@@ -103,8 +104,8 @@ def _swapped(words: Words, literal: Atom, parts: Sequence[tuple[tuple[str, ...],
 def _alone(
     scenario: Scenario, words: Words, literal: Atom, pieces: Sequence[tuple[tuple[str, ...], frozenset[str]]]
 ) -> list[Atom]:
-    """The literals of one thing of ``literal`` that the spans naming just that thing say, unless one
-    of those spans negates."""
+    """The literals of one thing of ``literal`` (not about the robot) that the spans naming just that
+    thing say, unless one of those spans negates."""
     found = []
     for thing in sorted(objects_of(words, literal)):
         own = [said for said, named in pieces if named == {thing}]
@@ -115,7 +116,9 @@ def _alone(
             for predicate, width in sorted(scenario.task.predicates.items())
             if width == 1
             for made in (Atom(predicate, (thing,)),)
-            if not words.phrasing(made).derived and any(says(words, made, said) for said in own)
+            if not words.phrasing(made).derived
+            and not words.about_robot(made)
+            and any(says(words, made, said) for said in own)
         ]
     return list(dict.fromkeys(found))
 
