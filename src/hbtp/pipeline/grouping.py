@@ -22,10 +22,10 @@ from collections.abc import Sequence
 
 from hbtp.domains.scenarios import Scenario
 from hbtp.domains.words import Words, is_number, spoken_words, words_for
-from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
-from hbtp.logic.goals import format_goal, parse_goal
+from hbtp.logic.goals import format_goal
 from hbtp.pipeline.clauses import objects_of, twin_at
+from hbtp.pipeline.mend import parsed
 
 log = logging.getLogger(__name__)
 
@@ -36,9 +36,8 @@ Term = tuple[Atom, ...]
 def regrouped(scenario: Scenario, text: str, goal: str) -> str:
     """``goal`` with its twins grouped as ``text`` joins their objects (see the module docstring); a
     goal that does not parse is returned as it is."""
-    try:
-        terms = parse_goal(goal)
-    except InputError:
+    terms = parsed(goal)
+    if terms is None:
         return goal
     words = words_for(scenario)
     about = {x for term in terms for literal in term for x in objects_of(words, literal)}

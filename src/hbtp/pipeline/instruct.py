@@ -74,6 +74,7 @@ from hbtp.pipeline.apart import apart_mended
 from hbtp.pipeline.clauses import has_twin, objects_of, spoken_objects
 from hbtp.pipeline.deeds import unanswered
 from hbtp.pipeline.grouping import regrouped
+from hbtp.pipeline.mend import parsed
 from hbtp.pipeline.own_state import unasked_own_dropped
 from hbtp.pipeline.polarity import negations_mended
 from hbtp.pipeline.referents import referents_read
@@ -406,9 +407,8 @@ def unsaid_dropped(scenario: Scenario, text: str, goal: str) -> str:
     IsIn_chips_fridge``), which
     :func:`substituted` refuses. A literal with no object but the robot or a placeholder is kept; a
     goal that does not parse is returned as it is, for the checks to refuse."""
-    try:
-        terms = parse_goal(goal)
-    except InputError:
+    terms = parsed(goal)
+    if terms is None:
         return goal
     words = words_for(scenario)
     spoken = spoken_objects(words, text)

@@ -9,7 +9,7 @@ from collections.abc import Callable
 from hbtp.domains.scenarios import Scenario
 from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
-from hbtp.logic.goals import format_goal, parse_goal
+from hbtp.logic.goals import Dnf, format_goal, parse_goal
 
 log = logging.getLogger(__name__)
 
@@ -26,13 +26,21 @@ def known(scenario: Scenario, literal: Atom) -> bool:
     return True
 
 
+def parsed(goal: str) -> Dnf | None:
+    """The terms of ``goal``, or ``None`` when it does not parse: a check leaves such a goal as it
+    is, for :func:`hbtp.pipeline.instruct.check_goal` to judge."""
+    try:
+        return parse_goal(goal)
+    except InputError:
+        return None
+
+
 def literals_replaced(goal: str, replacement: Replacement, why: str) -> str:
     """``goal`` with each literal that ``replacement`` gives another for replaced by it; a literal of a
     conjunction, or an alternative, that becomes one already there is kept once. The changes are
     logged with ``why``. A goal that does not parse is returned as it is (the checks judge it)."""
-    try:
-        terms = parse_goal(goal)
-    except InputError:
+    terms = parsed(goal)
+    if terms is None:
         return goal
     mended: dict[frozenset[Atom], tuple[Atom, ...]] = {}
     moved: list[str] = []
@@ -47,4 +55,4 @@ def literals_replaced(goal: str, replacement: Replacement, why: str) -> str:
     return format_goal(list(mended.values()))
 
 
-__all__ = ["Replacement", "known", "literals_replaced"]
+__all__ = ["Replacement", "known", "literals_replaced", "parsed"]

@@ -19,10 +19,10 @@ from collections.abc import Sequence
 
 from hbtp.domains.scenarios import Scenario
 from hbtp.domains.words import Words, words_for
-from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
-from hbtp.logic.goals import format_goal, parse_goal
+from hbtp.logic.goals import format_goal
 from hbtp.pipeline.clauses import in_order, objects_of, phrasing_runs, readings, spans, world_objects
+from hbtp.pipeline.mend import parsed
 
 log = logging.getLogger(__name__)
 
@@ -31,9 +31,8 @@ def unasked_own_dropped(scenario: Scenario, text: str, goal: str) -> str:
     """``goal`` without the positive literals about the robot itself that ``text`` does not say, when
     it asks for something about the world too (see the module docstring); a goal that does not
     parse is returned as it is."""
-    try:
-        terms = parse_goal(goal)
-    except InputError:
+    terms = parsed(goal)
+    if terms is None:
         return goal
     words = words_for(scenario)
     if all(words.about_robot(literal) for term in terms for literal in term):

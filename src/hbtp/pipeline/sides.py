@@ -22,10 +22,10 @@ from collections.abc import Sequence
 
 from hbtp.domains.scenarios import Scenario
 from hbtp.domains.words import spoken_words, words_for
-from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
-from hbtp.logic.goals import format_goal, parse_goal
+from hbtp.logic.goals import format_goal
 from hbtp.pipeline.clauses import objects_of
+from hbtp.pipeline.mend import parsed
 
 log = logging.getLogger(__name__)
 
@@ -37,9 +37,8 @@ _BACK = frozenset(("that", "it", "this", "there", "not"))
 def sides_as_said(scenario: Scenario, text: str, goal: str) -> str:
     """``goal`` as one alternative for each side of ``text`` that its literals belong to (see the
     module docstring), or as it is; a goal that does not parse is returned as it is."""
-    try:
-        terms = parse_goal(goal)
-    except InputError:
+    terms = parsed(goal)
+    if terms is None:
         return goal
     literals = list(dict.fromkeys(literal for term in terms for literal in term))
     cuts = _cuts(text)

@@ -22,10 +22,10 @@ import logging
 
 from hbtp.domains.scenarios import Scenario
 from hbtp.domains.words import Words, words_for
-from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
-from hbtp.logic.goals import format_goal, parse_goal
+from hbtp.logic.goals import format_goal
 from hbtp.pipeline.clauses import has_twin, objects_of, spoken_objects
+from hbtp.pipeline.mend import parsed
 
 log = logging.getLogger(__name__)
 
@@ -35,9 +35,8 @@ def named_in_place(scenario: Scenario, text: str, goal: str) -> str:
     it names, that the goal leaves out, which makes a literal of the world (see the module
     docstring); a goal that does not parse is returned as it is."""
     words = words_for(scenario)
-    try:
-        terms = parse_goal(goal)
-    except InputError:
+    terms = parsed(goal)
+    if terms is None:
         return goal
     if words.lacking_in(text):
         return goal

@@ -20,11 +20,11 @@ from collections.abc import Iterator
 
 from hbtp.domains.scenarios import Scenario
 from hbtp.domains.words import NEGATION, SLOT, Words, spoken_words, words_for
-from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
-from hbtp.logic.goals import format_goal, parse_goal
+from hbtp.logic.goals import format_goal
 from hbtp.logic.task import GroundTask
 from hbtp.pipeline.clauses import clauses, world_objects
+from hbtp.pipeline.mend import parsed
 
 log = logging.getLogger(__name__)
 
@@ -32,9 +32,8 @@ log = logging.getLogger(__name__)
 def undone_added(scenario: Scenario, text: str, goal: str) -> str:
     """``goal`` with each literal ``text`` says undone negated (see the module docstring); a goal of
     more than one conjunction, or that does not parse, is returned as it is."""
-    try:
-        terms = parse_goal(goal)
-    except InputError:
+    terms = parsed(goal)
+    if terms is None:
         return goal
     if len(terms) != 1:
         return goal

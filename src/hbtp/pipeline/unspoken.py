@@ -33,9 +33,8 @@ from itertools import pairwise
 
 from hbtp.domains.scenarios import Scenario
 from hbtp.domains.words import SLOT, Words, spoken_words, words_for
-from hbtp.errors import InputError
 from hbtp.logic.atoms import Atom
-from hbtp.logic.goals import format_goal, parse_goal
+from hbtp.logic.goals import format_goal
 from hbtp.pipeline.clauses import (
     LISTING,
     PRONOUNS,
@@ -51,7 +50,7 @@ from hbtp.pipeline.clauses import (
     tokens,
     world_objects,
 )
-from hbtp.pipeline.mend import known, literals_replaced
+from hbtp.pipeline.mend import known, literals_replaced, parsed
 
 log = logging.getLogger(__name__)
 
@@ -60,9 +59,8 @@ def unspoken_dropped(scenario: Scenario, text: str, goal: str) -> str:
     """``goal`` without the literals of its conjunctions whose kind of fact ``text`` never speaks of
     and whose objects other literals of their conjunction hold (see the module docstring); a goal
     that does not parse is returned as it is."""
-    try:
-        terms = parse_goal(goal)
-    except InputError:
+    terms = parsed(goal)
+    if terms is None:
         return goal
     words = words_for(scenario)
     said = tokens(text)
