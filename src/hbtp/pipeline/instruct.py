@@ -477,9 +477,8 @@ def _cover(
         offered = [a for a in atoms if missing in a.args and a not in literals]
         if missing in used or not offered or expired(deadline):
             continue
-        try:
-            reply = backend.complete(continuation_request(request, goal, offered, scenario.task.categories))
-        except BackendTimeLimit:
+        reply = _asked_more(scenario, backend, request, goal, offered)
+        if reply is None:
             break
         spent += reply.seconds
         goal = _continued(scenario, goal, reply, read, attempts)
@@ -510,15 +509,27 @@ def _answer_deeds(
         offered = tuple(a for a in offered if a not in parse_goal(goal)[0])
         if not offered or expired(deadline):
             continue
-        reply = Reply(offered[0].underscored, seconds=0.0)
-        if len(offered) > 1:
-            try:
-                reply = backend.complete(continuation_request(request, goal, offered, scenario.task.categories))
-            except BackendTimeLimit:
-                break
+        one = len(offered) == 1
+        reply = (
+            Reply(offered[0].underscored, seconds=0.0)
+            if one
+            else _asked_more(scenario, backend, request, goal, offered)
+        )
+        if reply is None:
+            break
         spent += reply.seconds
         goal = _continued(scenario, goal, reply, read, attempts)
     return spent
+
+
+def _asked_more(
+    scenario: Scenario, backend: Backend, request: Request, goal: str, offered: Sequence[Atom]
+) -> Reply | None:
+    """The model's continuation of ``goal`` with one of ``offered``; ``None`` when its time is up."""
+    try:
+        return backend.complete(continuation_request(request, goal, offered, scenario.task.categories))
+    except BackendTimeLimit:
+        return None
 
 
 def _continued(
